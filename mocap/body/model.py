@@ -96,7 +96,8 @@ class BodyModel:
         lim = np.array([[-np.inf, np.inf]] * 6 + [d.limits for d in dofs], dtype=np.float64)
         self.limits = lim                                   # (D, 2) radians, root unbounded
         self.faces = data.faces
-        self.weights = data.weights.astype(self.dtype)
+        w = data.weights.astype(np.float64)
+        self.weights = (w / w.sum(axis=1, keepdims=True)).astype(self.dtype)  # (V, J)
         self.part_labels = np.argmax(data.weights, axis=1)  # (V,) dominant joint per vertex
         self._basis = (data.stddev[:, None, None] * data.components).astype(np.float64)
 

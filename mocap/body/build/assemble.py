@@ -47,11 +47,19 @@ def _unify_topology(db: MeshDatabase, target_faces: int) -> tuple[np.ndarray, np
 def _skeleton_from_reference(mean_mesh: np.ndarray, faces: np.ndarray, meshes: np.ndarray,
                              ref: BodyModelData) -> tuple[np.ndarray, np.ndarray]:
     """Weights and rest joints of a new database, transferred from a reference model that
-    lives in the same body frame (metres, z up, front -y, A-pose)."""
+    lives in the same body frame (metres, z up, front -y, A-pose).
+
+    Meshes registered to the reference topology (same faces) reuse its weights and vertex
+    joint regressor as they are. Other topologies get them through closest surface points
+    of the reference mean: weights interpolate well; the regressor, fitted for the
+    reference surface, is only approximate there (expect errors of a centimetre or more).
+    """
+    if faces.shape == ref.faces.shape and np.array_equal(faces, ref.faces):
+        return ref.weights.astype(np.float64), skeleton.apply_vertex_regressor(
+            meshes, ref.regressor_index, ref.regressor_weight)
     tri, bary = topology.surface_coordinates(ref.mean, ref.faces, mean_mesh)
     weights = topology.barycentric_matrix(ref.faces, tri, bary, ref.num_vertices) @ ref.weights
     weights /= weights.sum(axis=1, keepdims=True)
-    # reference regressor vertices -> points on the new surface -> joints of every mesh
     pts = ref.mean[ref.regressor_index.ravel()]
     tri2, bary2 = topology.surface_coordinates(mean_mesh, faces, pts)
     B = topology.barycentric_matrix(faces, tri2, bary2, len(mean_mesh))

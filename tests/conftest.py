@@ -1,0 +1,33 @@
+"""Shared fixtures: the shipped body model in both DOF configurations."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from mocap.body import BodyModel, load_body_model
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+
+
+def body_config(name: str) -> dict:
+    return yaml.safe_load((REPO / "conf" / "body" / f"{name}.yaml").read_text())
+
+
+@pytest.fixture(scope="session")
+def body() -> BodyModel:
+    """The paper's 22-DOF body, float32."""
+    return load_body_model(body_config("paper22")["dofs"])
+
+
+@pytest.fixture(scope="session")
+def body64() -> BodyModel:
+    return load_body_model(body_config("paper22")["dofs"], dtype="float64")
+
+
+@pytest.fixture(scope="session")
+def body_full() -> BodyModel:
+    return load_body_model(body_config("full")["dofs"], dtype="float64")
