@@ -1,0 +1,1 @@
+"""Recording sinks. This is the only package that imports ``rerun``."""
