@@ -20,14 +20,14 @@ def body_config(name: str) -> dict:
 @pytest.fixture(scope="session")
 def body() -> BodyModel:
     """The paper's 22-DOF body, float32."""
-    return load_body_model(body_config("paper22")["dofs"])
+    return load_body_model(body_config("paper22")["dofs"], name="paper22")
 
 
 @pytest.fixture(scope="session")
 def body64() -> BodyModel:
-    return load_body_model(body_config("paper22")["dofs"], dtype="float64")
+    return load_body_model(body_config("paper22")["dofs"], dtype="float64", name="paper22")
 
 
 @pytest.fixture(scope="session")
 def body_full() -> BodyModel:
-    return load_body_model(body_config("full")["dofs"], dtype="float64")
+    return load_body_model(body_config("full")["dofs"], dtype="float64", name="full")

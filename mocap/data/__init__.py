@@ -1,0 +1,1 @@
+"""Data: the motion library, synthetic multi-view sequences, and loaders for recordings."""

@@ -1,0 +1,112 @@
+"""A multi-view sequence in memory: calibration, per-view observations and ground truth."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mocap.cameras import Rig
+
+
+@dataclass(frozen=True)
+class Detections:
+    """2D detections of a sequence as flat arrays (N detections in all).
+
+    frame, view: (N,) int; label: (N,) int index into ``labels`` (-1: unlabelled);
+    xy: (N, 2) float pixels; confidence: (N,) float in [0, 1].
+    Several detections may share (frame, view, label): false positives, other people.
+    """
+
+    labels: tuple[str, ...]
+    frame: np.ndarray
+    view: np.ndarray
+    label: np.ndarray
+    xy: np.ndarray
+    confidence: np.ndarray
+
+    def __post_init__(self) -> None:
+        n = len(self.frame)
+        for name in ("view", "label", "confidence"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"detections: field '{name}' has {len(getattr(self, name))} "
+                                 f"entries, expected {n}")
+        if self.xy.shape != (n, 2):
+            raise ValueError(f"detections: field 'xy' must be ({n}, 2), got {self.xy.shape}")
+        if n and (self.label.min() < -1 or self.label.max() >= len(self.labels)):
+            raise ValueError("detections: label index out of range")
+
+    def select(self, frame: int, view: int | None = None) -> Detections:
+        keep = self.frame == frame
+        if view is not None:
+            keep &= self.view == view
+        return Detections(self.labels, self.frame[keep], self.view[keep], self.label[keep],
+                          self.xy[keep], self.confidence[keep])
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """alpha: (K,) shape; chi: (F, D) poses; joints: (F, J, 3) and markers: (F, L, 3) world
+    metres; names of the DOFs, joints and markers; ``body``: the body configuration's name."""
+
+    alpha: np.ndarray
+    chi: np.ndarray
+    joints: np.ndarray
+    markers: np.ndarray
+    dof_names: tuple[str, ...]
+    joint_names: tuple[str, ...]
+    marker_names: tuple[str, ...]
+    body: str = ""
+
+
+@dataclass(frozen=True)
+class Sequence:
+    """masks: (F, C, H, W) bool silhouettes at camera resolution (None if absent);
+    images: (F, C, H, W, 3) uint8 RGB (None if absent). All views share one image size."""
+
+    name: str
+    rig: Rig
+    fps: float
+    masks: np.ndarray | None = None
+    images: np.ndarray | None = None
+    detections: Detections | None = None
+    gt: GroundTruth | None = None
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        sizes = {tuple(s) for s in np.asarray(self.rig.sizes)}
+        if len(sizes) != 1:
+            raise ValueError(f"sequence {self.name!r}: all views must share one image size, "
+                             f"got {sorted(sizes)}")
+        (w, h), = sizes
+        C = len(self.rig)
+        for what, arr, tail in (("masks", self.masks, (h, w)), ("images", self.images, (h, w, 3))):
+            if arr is not None and (arr.shape[1] != C or arr.shape[2:] != tail):
+                raise ValueError(f"sequence {self.name!r}: {what} must be (F, {C}, "
+                                 f"{', '.join(map(str, tail))}), got {arr.shape}")
+        if self.gt is not None and self.num_frames and len(self.gt.chi) != self.num_frames:
+            raise ValueError(f"sequence {self.name!r}: ground truth has {len(self.gt.chi)} "
+                             f"frames, observations {self.num_frames}")
+
+    @property
+    def num_frames(self) -> int:
+        for arr in (self.masks, self.images):
+            if arr is not None:
+                return len(arr)
+        if self.gt is not None:
+            return len(self.gt.chi)
+        if self.detections is not None and len(self.detections):
+            return int(self.detections.frame.max()) + 1
+        return 0
+
+    @property
+    def num_views(self) -> int:
+        return len(self.rig)
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """(width, height)."""
+        return tuple(int(x) for x in self.rig.sizes[0])

@@ -1,0 +1,210 @@
+"""Sequence folders: the on-disk format of multi-view recordings (synthetic or real).
+
+    <sequence>/
+      sequence.json        {"format": "mocap-sequence-v1", "name", "fps", "frames",
+                            "views": [camera names], "image_size": [w, h],
+                            "content": {"masks", "images", "detections", "gt": bool}, "meta"}
+      calibration.json     the rig, mocap's JSON calibration format (mocap.cameras)
+      masks/<view>/NNNNNN.png    silhouettes, 8-bit, 0 background / 255 foreground
+      images/<view>/NNNNNN.png   RGB images (PNG, lossless)
+      detections.json      {"labels": [marker names], "columns": ["frame", "view", "label",
+                            "x", "y", "confidence"], "rows": [[...], ...]}; view indexes
+                            "views", label indexes "labels" (-1: unlabelled)
+      gt.npz               alpha (K,), chi (F, D), joints (F, J, 3), markers (F, L, 3),
+                           dof_names, joint_names, marker_names, body
+
+``write_sequence`` writes into a temporary folder beside the target and renames it into place
+when complete, so an interrupted run leaves no half-written sequence. ``load_sequence``
+validates everything and names the file and field of any problem.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import uuid
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mocap.cameras import load_calibration, save_calibration
+from mocap.data.sequence import Detections, GroundTruth, Sequence
+
+FORMAT = "mocap-sequence-v1"
+_COLUMNS = ["frame", "view", "label", "x", "y", "confidence"]
+
+
+class SequenceFormatError(ValueError):
+    """A sequence folder is incomplete or inconsistent; the message names file and field."""
+
+
+def _frame_name(f: int) -> str:
+    return f"{f:06d}.png"
+
+
+def _parallel(fn, items, threads: int = 4):
+    with ThreadPoolExecutor(threads) as pool:
+        return list(pool.map(fn, items))
+
+
+def write_sequence(seq: Sequence, folder: str | Path, overwrite: bool = False) -> Path:
+    """Write a sequence folder atomically; returns its path."""
+    folder = Path(folder)
+    if folder.exists() and not overwrite:
+        raise FileExistsError(f"{folder} exists (pass overwrite=True to replace it)")
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    tmp = folder.with_name(f".{folder.name}.tmp-{uuid.uuid4().hex[:8]}")
+    tmp.mkdir()
+    try:
+        names = list(seq.rig.names)
+        save_calibration(seq.rig, tmp / "calibration.json")
+        jobs = []
+        for kind, arr in (("masks", seq.masks), ("images", seq.images)):
+            if arr is None:
+                continue
+            for c, view in enumerate(names):
+                (tmp / kind / view).mkdir(parents=True)
+                for f in range(len(arr)):
+                    img = arr[f, c]
+                    img = img.astype(np.uint8) * 255 if kind == "masks" else img[..., ::-1]
+                    jobs.append((tmp / kind / view / _frame_name(f), img))
+
+        def _write(job):
+            path, img = job
+            if not cv2.imwrite(str(path), img, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
+                raise OSError(f"could not write {path}")
+
+        _parallel(_write, jobs)
+        if seq.detections is not None:
+            d = seq.detections
+            rows = [[int(f), int(v), int(lb), float(x), float(y), float(c)]
+                    for f, v, lb, (x, y), c in zip(d.frame, d.view, d.label, d.xy, d.confidence,
+                                                   strict=True)]
+            (tmp / "detections.json").write_text(json.dumps(
+                {"labels": list(d.labels), "columns": _COLUMNS, "rows": rows}))
+        if seq.gt is not None:
+            g = seq.gt
+            np.savez_compressed(tmp / "gt.npz", alpha=g.alpha, chi=g.chi, joints=g.joints,
+                                markers=g.markers, dof_names=np.array(g.dof_names),
+                                joint_names=np.array(g.joint_names),
+                                marker_names=np.array(g.marker_names), body=np.array(g.body))
+        w, h = seq.image_size
+        (tmp / "sequence.json").write_text(json.dumps({
+            "format": FORMAT, "name": seq.name, "fps": seq.fps, "frames": seq.num_frames,
+            "views": names, "image_size": [w, h],
+            "content": {"masks": seq.masks is not None, "images": seq.images is not None,
+                        "detections": seq.detections is not None, "gt": seq.gt is not None},
+            "meta": seq.meta}, indent=2))
+        if folder.exists():
+            shutil.rmtree(folder)
+        tmp.rename(folder)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return folder
+
+
+def _require(obj: dict, key: str, where: Path):
+    if key not in obj:
+        raise SequenceFormatError(f"{where}: missing field '{key}'")
+    return obj[key]
+
+
+def _read_images(folder: Path, kind: str, views: list[str], frames: int, w: int, h: int,
+                 threads: int) -> np.ndarray:
+    color = kind == "images"
+    out = np.zeros((frames, len(views), h, w, 3) if color else (frames, len(views), h, w),
+                   dtype=np.uint8 if color else bool)
+
+    def _read(job):
+        f, c = job
+        path = folder / kind / views[c] / _frame_name(f)
+        if not path.is_file():
+            raise SequenceFormatError(f"{path}: missing frame file ({kind}, view {views[c]!r}, "
+                                      f"frame {f})")
+        img = cv2.imread(str(path), cv2.IMREAD_COLOR if color else cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise SequenceFormatError(f"{path}: unreadable image")
+        if img.shape[:2] != (h, w):
+            raise SequenceFormatError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, "
+                                      f"field 'image_size' of sequence.json says {w}x{h}")
+        out[f, c] = img[..., ::-1] if color else img > 127
+
+    _parallel(_read, [(f, c) for f in range(frames) for c in range(len(views))], threads)
+    return out
+
+
+def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4) -> Sequence:
+    """Read and validate a sequence folder (``images=False`` skips the RGB images)."""
+    folder = Path(folder)
+    meta_path = folder / "sequence.json"
+    if not meta_path.is_file():
+        raise SequenceFormatError(f"{meta_path}: not found (is {folder} a sequence folder?)")
+    try:
+        info = json.loads(meta_path.read_text())
+    except json.JSONDecodeError as exc:
+        raise SequenceFormatError(f"{meta_path}: invalid JSON ({exc})") from exc
+    fmt = _require(info, "format", meta_path)
+    if fmt != FORMAT:
+        raise SequenceFormatError(f"{meta_path}: field 'format' is {fmt!r}, expected {FORMAT!r}")
+    frames = int(_require(info, "frames", meta_path))
+    views = list(_require(info, "views", meta_path))
+    w, h = (int(x) for x in _require(info, "image_size", meta_path))
+    content = _require(info, "content", meta_path)
+    rig = load_calibration(folder / "calibration.json")
+    if list(rig.names) != views:
+        raise SequenceFormatError(f"{folder / 'calibration.json'}: cameras {list(rig.names)} do not "
+                                  f"match field 'views' of sequence.json {views}")
+    for cam in rig:
+        if (cam.width, cam.height) != (w, h):
+            raise SequenceFormatError(f"{folder / 'calibration.json'}: camera {cam.name!r} is "
+                                      f"{cam.width}x{cam.height}, sequence.json field "
+                                      f"'image_size' says {w}x{h}")
+    masks = _read_images(folder, "masks", views, frames, w, h, threads) if content.get("masks") else None
+    imgs = (_read_images(folder, "images", views, frames, w, h, threads)
+            if content.get("images") and images else None)
+    det = _load_detections(folder / "detections.json", views) if content.get("detections") else None
+    gt = _load_gt(folder / "gt.npz", frames) if content.get("gt") else None
+    return Sequence(name=str(info.get("name", folder.name)), rig=rig, fps=float(info.get("fps", 25.0)),
+                    masks=masks, images=imgs, detections=det, gt=gt, meta=info.get("meta", {}))
+
+
+def _load_detections(path: Path, views: list[str]) -> Detections:
+    if not path.is_file():
+        raise SequenceFormatError(f"{path}: not found (sequence.json lists detections)")
+    try:
+        d = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise SequenceFormatError(f"{path}: invalid JSON ({exc})") from exc
+    labels = tuple(_require(d, "labels", path))
+    if _require(d, "columns", path) != _COLUMNS:
+        raise SequenceFormatError(f"{path}: field 'columns' must be {_COLUMNS}")
+    rows = np.asarray(_require(d, "rows", path), dtype=np.float64).reshape(-1, 6)
+    if len(rows) and (rows[:, 1].max() >= len(views) or rows[:, 1].min() < 0):
+        raise SequenceFormatError(f"{path}: field 'rows': view index out of range")
+    try:
+        return Detections(labels=labels, frame=rows[:, 0].astype(np.int64),
+                          view=rows[:, 1].astype(np.int64), label=rows[:, 2].astype(np.int64),
+                          xy=rows[:, 3:5].copy(), confidence=rows[:, 5].copy())
+    except ValueError as exc:
+        raise SequenceFormatError(f"{path}: {exc}") from exc
+
+
+def _load_gt(path: Path, frames: int) -> GroundTruth:
+    if not path.is_file():
+        raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
+    with np.load(path) as z:
+        for key in ("alpha", "chi", "joints", "markers", "dof_names", "joint_names", "marker_names"):
+            if key not in z:
+                raise SequenceFormatError(f"{path}: missing field '{key}'")
+        gt = GroundTruth(alpha=z["alpha"], chi=z["chi"], joints=z["joints"], markers=z["markers"],
+                         dof_names=tuple(str(n) for n in z["dof_names"]),
+                         joint_names=tuple(str(n) for n in z["joint_names"]),
+                         marker_names=tuple(str(n) for n in z["marker_names"]),
+                         body=str(z["body"]) if "body" in z else "")
+    if len(gt.chi) != frames or len(gt.joints) != frames:
+        raise SequenceFormatError(f"{path}: field 'chi' has {len(gt.chi)} frames, sequence.json "
+                                  f"says {frames}")
+    return gt

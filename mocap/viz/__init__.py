@@ -1,0 +1,1 @@
+"""Static figures (PNG) for people: contact sheets, plots. Recording lives in mocap.recording."""
