@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from mocap.data.generate import make_synthetic
 from mocap.data.sequence_io import write_sequence
+from mocap.viz.contact_sheet import contact_sheet, save_png
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="make_dataset")
@@ -36,8 +37,9 @@ def main(cfg: DictConfig) -> None:
     t1 = time.perf_counter()
     out = write_sequence(seq, cfg.out, overwrite=cfg.overwrite)
     t2 = time.perf_counter()
+    sheet = save_png(contact_sheet(seq, cfg.frames // 2, body.parents), out / "contact_sheet.png")
     print(f"wrote {out}: {seq.num_frames} frames x {seq.num_views} views "
-          f"(render {t1 - t0:.1f} s, write {t2 - t1:.1f} s)")
+          f"(render {t1 - t0:.1f} s, write {t2 - t1:.1f} s); contact sheet {sheet}")
 
 
 if __name__ == "__main__":

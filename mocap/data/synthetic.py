@@ -93,7 +93,8 @@ def generate_sequence(body: BodyModel, rig: Rig, chi: np.ndarray, alpha: np.ndar
                     vis &= marker_visibility(verts, body.faces, gt_markers[f], rig)
                 for c in range(C):
                     lab, xy, conf = detections.sample(mpx[c], vis[c], w, h, rng)
-                    det_rows += [(f, c, int(lb), x, y, cf) for lb, (x, y), cf in zip(lab, xy, conf, strict=True)]
+                    det_rows += [(f, c, int(lb), x, y, cf)
+                                 for lb, (x, y), cf in zip(lab, xy, conf, strict=True)]
             if progress is not None:
                 progress(f + 1, F)
     finally:

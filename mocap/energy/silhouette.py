@@ -1,0 +1,152 @@
+"""The silhouette energy E_S (Zhang et al. 2013, Eq. 11): a symmetric chamfer distance.
+
+Per view C, with S_C the observed silhouette, S^p_C the projected model, D_C and D^p_C their
+Euclidean distance transforms (0 inside each silhouette):
+
+    E_S^C = 1/|S^p_C| sum_{p in S^p_C} D_C(p)  +  1/|S_C| sum_{q in S_C} D^p_C(q)
+
+(the absolute differences of Eq. 11 reduce to these because each transform is 0 on its own
+silhouette). E_S is the mean over views. The observed side (downscaled masks, their
+transforms) is computed once per frame in :class:`SilhouetteTarget`; per particle only the
+model mask is rasterized, and its distance transform is taken on the bounding box of the
+observed silhouette grown by ``margin`` pixels (pixels of S_C lie there, so the second term
+is exact up to the margin while the transform costs a fraction of the full image), with
+OpenCV's 5x5 chamfer mask (Borgefors), within about 2 % of the Euclidean distance and 3-4x
+faster than the exact transform used on the observed side. Distances are in pixels of the
+internal resolution.
+
+Fallbacks, reported in ``SilhouetteTarget.ignored``: a view whose observed silhouette is
+empty is ignored (the energy averages the other views); if every view is empty the target
+cannot be built (ValueError). A particle whose model silhouette is empty in a view scores
+``empty_penalty`` (the internal image diagonal) for each term of that view, never NaN.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from mocap.cameras import Rig, project
+from mocap.render import distance_transform, get_rasterizer
+from mocap.render.scaling import scaled_size
+
+
+@dataclass(frozen=True)
+class SilhouetteTarget:
+    """Observed silhouettes of one frame at internal resolution.
+
+    masks: (C, h, w) bool; dt: (C, h, w) float32 distance to the observed silhouette;
+    area: (C,) pixel counts; boxes: (C, 4) int (x0, y0, x1, y1) exclusive, grown by the margin;
+    valid: (C,) bool, views used; ignored: names of views ignored (empty silhouettes).
+    """
+
+    masks: np.ndarray
+    dt: np.ndarray
+    area: np.ndarray
+    boxes: np.ndarray
+    valid: np.ndarray
+    ignored: tuple[str, ...] = ()
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.masks.shape[1], self.masks.shape[2]
+
+
+def downscale_masks(masks: np.ndarray, scale: float) -> np.ndarray:
+    """(C, H, W) bool -> (C, h, w) bool at ``scaled_size``; a pixel is set when at least
+    half of the area it covers is (cv2.resize INTER_AREA, the scaling convention of
+    :mod:`mocap.render.scaling`)."""
+    masks = np.asarray(masks)
+    if masks.ndim != 3:
+        raise ValueError(f"masks must be (C, H, W), got {masks.shape}")
+    H, W = masks.shape[1:]
+    h, w = scaled_size(H, W, scale)
+    if (h, w) == (H, W):
+        return masks.astype(bool)
+    out = np.empty((len(masks), h, w), dtype=bool)
+    for c, m in enumerate(masks):
+        out[c] = cv2.resize(m.astype(np.uint8) * 255, (w, h), interpolation=cv2.INTER_AREA) >= 128
+    return out
+
+
+def silhouette_target(masks: np.ndarray, scale: float = 1.0, margin: int = 12,
+                      view_names: tuple[str, ...] | None = None) -> SilhouetteTarget:
+    """Observed side of Eq. 11 from (C, H, W) camera-resolution masks."""
+    small = downscale_masks(masks, scale)
+    C, h, w = small.shape
+    area = small.reshape(C, -1).sum(axis=1)
+    valid = area > 0
+    names = view_names or tuple(f"view {c}" for c in range(C))
+    if not valid.any():
+        raise ValueError("every observed silhouette is empty: nothing to track in this frame")
+    dt = distance_transform(small, empty_value=0.0)
+    boxes = np.zeros((C, 4), dtype=np.int64)
+    for c in np.flatnonzero(valid):
+        ys, xs = np.nonzero(small[c])
+        boxes[c] = (max(0, xs.min() - margin), max(0, ys.min() - margin),
+                    min(w, xs.max() + 1 + margin), min(h, ys.max() + 1 + margin))
+    return SilhouetteTarget(masks=small, dt=dt, area=area, boxes=boxes, valid=valid,
+                            ignored=tuple(n for n, v in zip(names, valid, strict=True) if not v))
+
+
+def chamfer_energy(model: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
+    """Per-view symmetric chamfer of model masks (P, C, h, w) bool -> (P, C) float64.
+
+    Views not ``valid`` in the target are NaN here (callers average the valid ones).
+    """
+    P, C, h, w = model.shape
+    if (h, w) != target.size or C != len(target.masks):
+        raise ValueError(f"model masks {model.shape[1:]} do not match the target "
+                         f"{(len(target.masks),) + target.size}")
+    penalty = float(np.hypot(h, w))
+    out = np.full((P, C), np.nan)
+    flat = model.reshape(P, C, h * w)
+    model_area = np.count_nonzero(flat, axis=2)
+    for c in np.flatnonzero(target.valid):
+        x0, y0, x1, y1 = (int(v) for v in target.boxes[c])
+        # term 1: observed DT averaged over the model silhouette (whole image)
+        t1 = flat[:, c].astype(np.float32) @ target.dt[c].ravel()
+        t1 = np.where(model_area[:, c] > 0, t1 / np.maximum(model_area[:, c], 1), penalty)
+        # term 2: model DT averaged over the observed silhouette, inside its grown box
+        obs_idx = np.flatnonzero(target.masks[c, y0:y1, x0:x1])
+        crop = np.ascontiguousarray(model[:, c, y0:y1, x0:x1])
+        background = (~crop).view(np.uint8)
+        t2 = np.full(P, penalty)
+        buf = np.empty(crop.shape[1:], np.float32)
+        for p in range(P):
+            if background[p].all():
+                continue
+            cv2.distanceTransform(background[p], cv2.DIST_L2, cv2.DIST_MASK_5, dst=buf)
+            t2[p] = float(buf.ravel()[obs_idx].sum()) / target.area[c]
+        out[:, c] = t1 + t2
+    return out
+
+
+class SilhouetteEnergy:
+    """E_S for a shaped body seen by a rig at an internal resolution ``scale``."""
+
+    def __init__(self, shaped, rig: Rig, scale: float = 0.25):
+        self.shaped = shaped
+        self.rig = rig
+        self.scale = float(scale)
+        self.internal = rig.scaled(self.scale)
+        w, h = (int(x) for x in self.internal.sizes[0])
+        self.size = (h, w)
+        faces = shaped.model.faces
+        self.rasterizer = get_rasterizer(faces, shaped.model.num_vertices)
+
+    def model_masks(self, vertices: np.ndarray) -> np.ndarray:
+        """(P, V, 3) world vertices -> (P, C, h, w) bool silhouettes at internal resolution."""
+        px, depth = project(self.internal, vertices, return_depth=True)
+        h, w = self.size
+        return self.rasterizer(px, h, w, depth, near=0.05)
+
+    def per_view(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
+        """(P, D) -> (P, C) chamfer per view (NaN for ignored views)."""
+        return chamfer_energy(self.model_masks(self.shaped.pose(chi).vertices), target)
+
+    def __call__(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
+        """(P, D) -> (P,) E_S, the mean over valid views."""
+        return np.nanmean(self.per_view(chi, target)[:, target.valid], axis=1)

@@ -1,0 +1,68 @@
+"""The tracking energy E = w_S E_S + lambda E_R + w_P E_P (Zhang et al. 2013, Eq. 10), with
+every term switchable and weighted from configuration (for ablations)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.energy.prior import PosePrior
+from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget
+from mocap.energy.smoothness import smoothness_energy
+
+
+@dataclass(frozen=True)
+class EnergyWeights:
+    silhouette: float = 1.0     # w_S (0 switches E_S off)
+    smoothness: float = 0.01    # lambda of Eq. 10
+    prior: float = 0.0          # w_P (0: no pose prior, the plain APF)
+
+    @property
+    def terms(self) -> tuple[str, ...]:
+        return tuple(n for n in ("silhouette", "smoothness", "prior") if getattr(self, n))
+
+
+class FrameEnergy:
+    """E bound to one frame's observation and prediction: callable (P, D) -> (P,)."""
+
+    def __init__(self, weights: EnergyWeights, silhouette: SilhouetteEnergy | None,
+                 target: SilhouetteTarget | None, predicted: np.ndarray | None,
+                 prior: PosePrior | None, dof_mask: np.ndarray | None = None):
+        if weights.silhouette and (silhouette is None or target is None):
+            raise ValueError("the silhouette term is on but there is no silhouette observation")
+        if weights.prior and prior is None:
+            raise ValueError("the prior term is on but no pose prior was given")
+        self.w, self.sil, self.target, self.pred, self.prior = weights, silhouette, target, predicted, prior
+        self.dof_mask = dof_mask
+        self.evaluations = 0
+
+    def terms(self, chi: np.ndarray) -> dict[str, np.ndarray]:
+        """Weighted terms, each (P,): silhouette, smoothness, prior (E_prior), learned."""
+        P = len(chi)
+        self.evaluations += P
+        out = {}
+        if self.w.silhouette:
+            out["silhouette"] = self.w.silhouette * self.sil(chi, self.target)
+        if self.w.smoothness and self.pred is not None:
+            d = chi if self.dof_mask is None else chi[:, self.dof_mask]
+            p = self.pred if self.dof_mask is None else self.pred[self.dof_mask]
+            out["smoothness"] = self.w.smoothness * smoothness_energy(d, p)
+        if self.w.prior:
+            for k, v in self.prior.terms(chi).items():
+                out[k] = self.w.prior * v
+        return out
+
+    def __call__(self, chi: np.ndarray) -> np.ndarray:
+        t = self.terms(chi)
+        total = np.zeros(len(chi))
+        for v in t.values():
+            total += v
+        if not np.all(np.isfinite(total)):
+            bad = {k: int((~np.isfinite(v)).sum()) for k, v in t.items()}
+            raise FloatingPointError(f"non-finite energy values per term: {bad}")
+        return total
+
+
+EnergyFn = Callable[[np.ndarray], np.ndarray]

@@ -1,0 +1,1 @@
+"""Evaluation against ground truth: joint errors (HumanEva), MMTA/MMTP (Canton-Ferrer)."""

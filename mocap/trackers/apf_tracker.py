@@ -1,0 +1,83 @@
+"""Silhouette trackers built on the annealed particle filter: ``apf`` (100 x 15, E_S + lambda E_R)
+and ``apf_prior`` (25 x 10, with the pose prior E_P), Zhang et al. 2013, Sec. 4.2."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from mocap.body.model import BodyModel
+from mocap.cameras import Rig
+from mocap.energy.prior import PosePrior
+from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
+from mocap.energy.smoothness import predict_constant_velocity
+from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.base import Estimate, Frame
+
+
+def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: float) -> np.ndarray:
+    """Initial per-DOF diffusion std (D,): the twist's v part (m), its omega part (rad), angles."""
+    return np.r_[np.full(3, translation), np.full(3, rotation), np.full(body.num_dofs - 6, joint)]
+
+
+class APFTracker:
+    """Tracks one subject of known shape from multi-view silhouettes."""
+
+    def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, weights: EnergyWeights,
+                 rng: np.random.Generator, prior: PosePrior | None = None, scale: float = 0.25,
+                 init_std: Sequence[float] = (0.03, 0.03, 0.1), prediction_damping: float = 1.0,
+                 keep_particles: bool = False, name: str = "apf"):
+        self.body, self.rig, self.settings, self.weights = body, rig, settings, weights
+        self.rng, self.prior, self.scale, self.name = rng, prior, scale, name
+        self.std0 = diffusion_std(body, *init_std)
+        self.damping = prediction_damping
+        self.keep_particles = keep_particles
+        self.history: list[np.ndarray] = []
+        self.shaped = None
+        self.energy: SilhouetteEnergy | None = None
+
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
+        chi = np.asarray(chi, np.float64)
+        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
+            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        self.shaped = self.body.shaped(alpha)
+        self.energy = SilhouetteEnergy(self.shaped, self.rig, self.scale)
+        self.history = [chi]
+
+    def predict(self) -> np.ndarray:
+        return predict_constant_velocity(self.history[-2:], self.damping)
+
+    def frame_energy(self, frame: Frame, predicted: np.ndarray,
+                     dof_mask: np.ndarray | None = None) -> tuple[FrameEnergy, tuple[str, ...]]:
+        if frame.masks is None:
+            raise ValueError(f"frame {frame.index}: the silhouette trackers need masks")
+        target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        return FrameEnergy(self.weights, self.energy, target, predicted, self.prior, dof_mask), target.ignored
+
+    def step(self, frame: Frame) -> Estimate:
+        if self.shaped is None:
+            raise RuntimeError("initialize() the tracker before step()")
+        t0 = time.perf_counter()
+        predicted = self.predict()
+        energy, ignored = self.frame_energy(frame, predicted)
+        t1 = time.perf_counter()
+        chi, diag = run_apf(energy, predicted, self.std0, self.body.limits, self.settings,
+                            self.rng, keep_particles=self.keep_particles,
+                            previous=self.history[-1], root_point=self.shaped.rest_joints[0])
+        t2 = time.perf_counter()
+        terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}
+        self.history.append(chi)
+        self.history = self.history[-3:]
+        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics={
+            "energy_terms": terms, "energy": float(sum(terms.values())),
+            "layers": {"energy_min": diag.energy_min, "energy_mean": diag.energy_mean,
+                       "beta": diag.beta, "survival": diag.survival, "ess": diag.ess,
+                       "spread": diag.spread},
+            "particles": diag.particles if self.keep_particles else None,
+            "energy_evaluations": diag.evaluations,
+            "ignored_views": list(ignored),
+            "timings": {"observation": t1 - t0, "search": t2 - t1},
+        })

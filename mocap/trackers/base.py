@@ -1,0 +1,41 @@
+"""The tracker interface and the data that flows through it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from mocap.data.sequence import Detections
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame's observations. masks: (C, H, W) bool; images: (C, H, W, 3) uint8;
+    detections: this frame's 2D detections. Any may be None."""
+
+    index: int
+    masks: np.ndarray | None = None
+    images: np.ndarray | None = None
+    detections: Detections | None = None
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A tracker's answer for one frame: pose chi (D,), shape alpha (K,) and diagnostics
+    (plain data: energies per term and per layer, timings in seconds, counts)."""
+
+    chi: np.ndarray
+    alpha: np.ndarray
+    diagnostics: dict = field(default_factory=dict)
+
+
+class Tracker(Protocol):
+    """Every tracker: set up on the first frame, then one estimate per frame."""
+
+    name: str
+
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None: ...
+
+    def step(self, frame: Frame) -> Estimate: ...
