@@ -1,4 +1,5 @@
-"""Track a sequence with one tracker and write metrics.json into the Hydra run directory.
+"""Track a sequence with one tracker; write metrics.json and recording.rrd into the Hydra
+run directory.
 
     python experiments/track.py tracker=apf_prior data=walk_mpi08 seed=0
     python experiments/track.py --multirun tracker=apf,apf_prior seed=0,1,2
@@ -18,7 +19,12 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mocap.eval.metrics import joint_errors, mpjpe_summary
-from mocap.trackers.run import noisy_initial_pose, track_sequence
+from mocap.eval.run_metadata import run_metadata
+from mocap.recording.factory import make_sink
+from mocap.recording.sink import RunInfo
+from mocap.trackers.run import frame_of, noisy_initial_pose, track_sequence
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def write_json(path: Path, data: dict) -> None:
@@ -27,9 +33,18 @@ def write_json(path: Path, data: dict) -> None:
     tmp.replace(path)
 
 
+def is_complete(out_dir: Path, cfg: DictConfig) -> bool:
+    """A finished run: its metrics.json and (when recording) its recording.rrd exist."""
+    done = (out_dir / "metrics.json").is_file()
+    return done and (not cfg.recording.enabled or (out_dir / "recording.rrd").is_file())
+
+
 @hydra.main(version_base="1.3", config_path="../conf", config_name="track")
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
+    if cfg.skip_complete and is_complete(out_dir, cfg):
+        print(f"skipping {out_dir}: already complete")
+        return
     body = instantiate(cfg.body)
     seq = instantiate(cfg.data, _partial_=True)(body=body)
     if seq.gt is None:
@@ -37,20 +52,42 @@ def main(cfg: DictConfig) -> None:
                          "(not available yet) or use a synthetic sequence")
     rng = np.random.default_rng(cfg.seed)
     # objects go in through a partial: Hydra would turn dataclass kwargs into configs
-    tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=seq.rig,
-                                                       rng=np.random.default_rng([cfg.seed, 1]))
+    rec_cfg = cfg.recording
+    tracker = instantiate(cfg.tracker, _partial_=True)(
+        body=body, rig=seq.rig, rng=np.random.default_rng([cfg.seed, 1]),
+        keep_particles=bool(rec_cfg.enabled and rec_cfg.particles))
     init = noisy_initial_pose(body, seq.gt.chi[0], rng, cfg.init.noise_deg, cfg.init.noise_translation)
     F = seq.num_frames if cfg.frames is None else min(int(cfg.frames), seq.num_frames)
-    t0 = time.perf_counter()
-    with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
-        result = track_sequence(tracker, seq, init, seq.gt.alpha, F,
-                                on_frame=lambda f, e: bar.update(1))
-    wall = time.perf_counter() - t0
+    config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
+    sink = make_sink(out_dir, **OmegaConf.to_container(rec_cfg))
+    sink.start(RunInfo(config_yaml, run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name,
+                                                 data=seq.name)), body, seq)
     shaped = body.shaped(seq.gt.alpha)
+    recording_seconds = [0.0]
+
+    def record(f, est, step_seconds, bar):
+        t = time.perf_counter()
+        out = shaped.pose(est.chi)
+        err = float(joint_errors(out.joints, seq.gt.joints[f:f + 1], body.joint_names).mean())
+        sink.frame(frame_of(seq, f), est, out.joints[0], out.vertices[0], seq.gt.joints[f], err,
+                   step_seconds)
+        recording_seconds[0] += time.perf_counter() - t
+        bar.update(1)
+
+    t0 = time.perf_counter()
+    try:
+        with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
+            result = track_sequence(tracker, seq, init, seq.gt.alpha, F,
+                                    on_frame=lambda f, e, s: record(f, e, s, bar))
+    except BaseException:
+        sink.finish(None, failed=True)
+        raise
+    wall = time.perf_counter() - t0
     chis = np.stack([e.chi for e in result.estimates])
     errors = joint_errors(shaped.joints(chis), seq.gt.joints[:F], body.joint_names)
     tracked = result.seconds[1:]
     evals = [e.diagnostics.get("energy_evaluations", 0) for e in result.estimates[1:]]
+    tracking_seconds = float(np.sum(tracked))
     metrics = {
         "tracker": tracker.name, "seed": int(cfg.seed), "data": seq.name, "frames": F,
         **mpjpe_summary(errors),
@@ -58,12 +95,15 @@ def main(cfg: DictConfig) -> None:
         "energy_evals_per_frame": float(np.mean(evals)) if evals else 0.0,
         "particles": int(cfg.tracker.get("particles", 0)), "layers": int(cfg.tracker.get("layers", 0)),
         "energy_terms": [k for k, v in (cfg.tracker.get("energy") or {}).items() if v],
-        "wall_seconds": wall,
+        "wall_seconds": wall, "tracking_seconds": tracking_seconds,
+        "recording_seconds": recording_seconds[0],
+        "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
+    sink.finish(metrics)
     write_json(out_dir / "metrics.json", metrics)
     print(f"{tracker.name}: MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
-          f"{metrics['sec_per_frame']:.2f} s/frame -> {out_dir / 'metrics.json'}")
+          f"{metrics['sec_per_frame']:.2f} s/frame -> {out_dir}")
 
 
 if __name__ == "__main__":

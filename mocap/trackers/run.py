@@ -40,7 +40,7 @@ def frame_of(seq: Sequence, f: int) -> Frame:
 
 def track_sequence(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha: np.ndarray,
                    frames: int | None = None,
-                   on_frame: Callable[[int, Estimate], None] | None = None) -> TrackResult:
+                   on_frame: Callable[[int, Estimate, float], None] | None = None) -> TrackResult:
     """Initialise on frame 0 (its estimate is the initial pose) and track frames 1..F-1."""
     F = seq.num_frames if frames is None else min(frames, seq.num_frames)
     tracker.initialize(init_chi, alpha)
@@ -48,7 +48,7 @@ def track_sequence(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha:
                           diagnostics={"initial": True})]
     seconds = [0.0]
     if on_frame is not None:
-        on_frame(0, estimates[0])
+        on_frame(0, estimates[0], 0.0)
     for f in range(1, F):
         t = time.perf_counter()
         est = tracker.step(frame_of(seq, f))
@@ -57,5 +57,5 @@ def track_sequence(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha:
             raise FloatingPointError(f"{tracker.name}: non-finite pose at frame {f}")
         estimates.append(est)
         if on_frame is not None:
-            on_frame(f, est)
+            on_frame(f, est, seconds[-1])
     return TrackResult(estimates, seconds)

@@ -1,0 +1,47 @@
+"""Collect a sweep's metrics.json files into ablation.md, ablation.csv and ablation.png.
+
+    python experiments/ablate.py multirun/<sweep dir> [--out DIR] [--title TEXT]
+
+Groups runs by tracker, data, particles x layers and energy terms; reports mean ± std of the
+joint error over seeds, time per frame and energy evaluations per frame, and lists the runs
+that failed or are missing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mocap.eval.ablation import collect, markdown, plot, table_rows, write_csv
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("sweep_dir", type=Path)
+    p.add_argument("--out", type=Path, default=None, help="output folder (default: the sweep dir)")
+    p.add_argument("--title", default="Ablation")
+    p.add_argument("--strict", action="store_true", help="exit 1 when any run failed or is missing")
+    args = p.parse_args(argv)
+    try:
+        got = collect(args.sweep_dir)
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    out = args.out or args.sweep_dir
+    out.mkdir(parents=True, exist_ok=True)
+    rows = table_rows(got.runs)
+    md = markdown(rows, got.problems, args.title)
+    (out / "ablation.md").write_text(md)
+    write_csv(rows, out / "ablation.csv")
+    if rows:
+        plot(rows, out / "ablation.png")
+    print(md)
+    print(f"wrote {out / 'ablation.md'}, ablation.csv" + (", ablation.png" if rows else ""))
+    if not rows or (args.strict and got.problems):
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,50 @@
+"""Review a run: open its recording in the Rerun viewer where a display exists, otherwise
+print a headless summary (frames, entities, final metrics) read from the file itself.
+
+    python experiments/replay.py outputs/track/<run>            # a run directory
+    python experiments/replay.py path/to/recording.rrd [--summary]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from mocap.recording.reader import read_recording, summary_text
+
+
+def find_recording(target: Path) -> Path:
+    if target.is_dir():
+        for name in ("recording.rrd", "recording.failed.rrd"):
+            if (target / name).is_file():
+                return target / name
+        raise FileNotFoundError(f"{target}: no recording.rrd in this run directory")
+    if not target.is_file():
+        raise FileNotFoundError(f"{target}: no such run directory or .rrd file")
+    return target
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("target", type=Path, help="run directory or .rrd file")
+    p.add_argument("--summary", action="store_true", help="print the summary, never open a viewer")
+    args = p.parse_args(argv)
+    try:
+        rrd = find_recording(args.target)
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    viewer = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+    if has_display and not args.summary and Path(viewer).exists():
+        return subprocess.call([viewer, str(rrd)])
+    print(summary_text(read_recording(rrd)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

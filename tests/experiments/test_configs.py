@@ -1,0 +1,63 @@
+"""Every option of every config group composes and instantiates."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.utils import instantiate
+
+REPO = Path(__file__).resolve().parents[2]
+CONF = REPO / "conf"
+
+
+def options(group: str) -> list[str]:
+    return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+
+
+def test_every_group_has_options():
+    for group in ("body", "cameras", "data", "tracker"):
+        assert options(group), group
+
+
+@pytest.mark.parametrize("name", options("body"))
+def test_body_options(name):
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("track", overrides=[f"body={name}"])
+    body = instantiate(cfg.body)
+    assert body.num_dofs == 6 + len(cfg.body.dofs)
+    assert np.isfinite(body.shaped().pose(body.zero_pose(2)).vertices).all()
+
+
+@pytest.mark.parametrize("name", options("cameras"))
+def test_camera_options(name):
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("make_dataset", overrides=[f"cameras={name}"])
+    rig = instantiate(cfg.cameras)
+    assert len(rig) == cfg.cameras.num_cameras
+
+
+@pytest.mark.parametrize("name", [o for o in options("data") if o != "folder"])
+def test_synthetic_data_options(name, body):
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("track", overrides=[f"data={name}", "data.frames=2"])
+    seq = instantiate(cfg.data, _partial_=True)(body=body)
+    assert seq.num_frames == 2 and seq.masks is not None and seq.gt is not None
+
+
+def test_folder_data_option_needs_an_existing_path(body):
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("track", overrides=["data=folder", "data.path=/nonexistent/sequence"])
+    with pytest.raises(FileNotFoundError, match="data path not found: /nonexistent/sequence"):
+        instantiate(cfg.data, _partial_=True)(body=body)
+
+
+@pytest.mark.parametrize("name", options("tracker"))
+def test_tracker_options(name, body):
+    from mocap.cameras import rig_from_config
+
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("track", overrides=[f"tracker={name}"])
+    tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=rig_from_config("ring4_small"),
+                                                        rng=np.random.default_rng(0))
+    assert tracker.name == name
