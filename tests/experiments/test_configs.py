@@ -61,3 +61,11 @@ def test_tracker_options(name, body):
     tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=rig_from_config("ring4_small"),
                                                         rng=np.random.default_rng(0))
     assert tracker.name == name
+
+
+def test_slurm_launcher_config_composes():
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("track", overrides=["hydra/launcher=slurm"], return_hydra_config=True)
+    launcher = cfg.hydra.launcher
+    assert launcher._target_.endswith("SlurmLauncher")
+    assert launcher.cpus_per_task == 2 and launcher.timeout_min == 240
