@@ -18,8 +18,9 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
-from mocap.eval.metrics import joint_errors, mpjpe_summary
+from mocap.eval.metrics import joint_errors
 from mocap.eval.run_metadata import run_metadata
+from mocap.eval.run_metrics import run_metrics
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
 from mocap.trackers.run import frame_of, noisy_initial_pose, track_sequence
@@ -47,52 +48,55 @@ def main(cfg: DictConfig) -> None:
         return
     body = instantiate(cfg.body)
     seq = instantiate(cfg.data, _partial_=True)(body=body)
-    if seq.gt is None:
-        raise ValueError(f"sequence {seq.name!r} has no ground truth: initialise from silhouettes "
-                         "(not available yet) or use a synthetic sequence")
+    if cfg.init.mode not in ("gt_noise", "tracker"):
+        raise ValueError(f"init.mode must be 'gt_noise' or 'tracker', got {cfg.init.mode!r}")
+    if seq.gt is None and cfg.init.mode == "gt_noise":
+        raise ValueError(f"sequence {seq.name!r} has no ground truth: use init.mode=tracker")
     rng = np.random.default_rng(cfg.seed)
     # objects go in through a partial: Hydra would turn dataclass kwargs into configs
     rec_cfg = cfg.recording
     tracker = instantiate(cfg.tracker, _partial_=True)(
         body=body, rig=seq.rig, rng=np.random.default_rng([cfg.seed, 1]),
         keep_particles=bool(rec_cfg.enabled and rec_cfg.particles))
-    init = noisy_initial_pose(body, seq.gt.chi[0], rng, cfg.init.noise_deg, cfg.init.noise_translation)
+    if cfg.init.mode == "tracker":
+        if not hasattr(tracker, "initial_estimate"):
+            raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
+        init, alpha = tracker.initial_estimate(frame_of(seq, 0))
+    else:
+        init = noisy_initial_pose(body, seq.gt.chi[0], rng, cfg.init.noise_deg, cfg.init.noise_translation)
+        alpha = seq.gt.alpha
     F = seq.num_frames if cfg.frames is None else min(int(cfg.frames), seq.num_frames)
     config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
     sink = make_sink(out_dir, **OmegaConf.to_container(rec_cfg))
     sink.start(RunInfo(config_yaml, run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name,
                                                  data=seq.name)), body, seq)
-    shaped = body.shaped(seq.gt.alpha)
+    shaped = body.shaped(alpha)
     recording_seconds = [0.0]
 
     def record(f, est, step_seconds, bar):
         t = time.perf_counter()
         out = shaped.pose(est.chi)
-        err = float(joint_errors(out.joints, seq.gt.joints[f:f + 1], body.joint_names).mean())
-        sink.frame(frame_of(seq, f), est, out.joints[0], out.vertices[0], seq.gt.joints[f], err,
-                   step_seconds)
+        truth = err = None
+        if seq.gt is not None:
+            truth = seq.gt.joints[f]
+            err = float(joint_errors(out.joints, seq.gt.joints[f:f + 1], body.joint_names).mean())
+        sink.frame(frame_of(seq, f), est, out.joints[0], out.vertices[0], truth, err, step_seconds)
         recording_seconds[0] += time.perf_counter() - t
         bar.update(1)
 
     t0 = time.perf_counter()
     try:
         with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
-            result = track_sequence(tracker, seq, init, seq.gt.alpha, F,
+            result = track_sequence(tracker, seq, init, alpha, F,
                                     on_frame=lambda f, e, s: record(f, e, s, bar))
     except BaseException:
         sink.finish(None, failed=True)
         raise
     wall = time.perf_counter() - t0
-    chis = np.stack([e.chi for e in result.estimates])
-    errors = joint_errors(shaped.joints(chis), seq.gt.joints[:F], body.joint_names)
-    tracked = result.seconds[1:]
-    evals = [e.diagnostics.get("energy_evaluations", 0) for e in result.estimates[1:]]
-    tracking_seconds = float(np.sum(tracked))
+    tracking_seconds = float(np.sum(result.seconds[1:]))
     metrics = {
-        "tracker": tracker.name, "seed": int(cfg.seed), "data": seq.name, "frames": F,
-        **mpjpe_summary(errors),
-        "sec_per_frame": float(np.mean(tracked)) if tracked else 0.0,
-        "energy_evals_per_frame": float(np.mean(evals)) if evals else 0.0,
+        "tracker": tracker.name, "seed": int(cfg.seed), "data": seq.name,
+        **run_metrics(body, seq, result.estimates, result.seconds),
         "particles": int(cfg.tracker.get("particles", 0)), "layers": int(cfg.tracker.get("layers", 0)),
         "energy_terms": [k for k, v in (cfg.tracker.get("energy") or {}).items() if v],
         "wall_seconds": wall, "tracking_seconds": tracking_seconds,
@@ -102,8 +106,9 @@ def main(cfg: DictConfig) -> None:
     }
     sink.finish(metrics)
     write_json(out_dir / "metrics.json", metrics)
-    print(f"{tracker.name}: MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
-          f"{metrics['sec_per_frame']:.2f} s/frame -> {out_dir}")
+    accuracy = (f"MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
+                if "mpjpe_mm" in metrics else "")
+    print(f"{tracker.name}: {accuracy}{metrics['sec_per_frame']:.2f} s/frame -> {out_dir}")
 
 
 if __name__ == "__main__":

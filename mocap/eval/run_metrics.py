@@ -1,0 +1,40 @@
+"""The metrics of one tracking run (what metrics.json holds besides its config)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mocap.body.landmarks import LandmarkSet
+from mocap.body.model import BodyModel
+from mocap.data.sequence import Sequence
+from mocap.eval.metrics import joint_errors, mmta_mmtp, mpjpe_summary
+from mocap.trackers.base import Estimate
+
+
+def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], seconds: list[float]) -> dict:
+    """Accuracy against ground truth (when the sequence has it), speed and effort.
+
+    estimates: one per frame, frame 0 being the initialisation; seconds: step time per frame.
+    Keys: mpjpe_mm, mpjpe_std_mm, per_joint_mm, per_frame_mm (with ground truth), mmta,
+    mmtp_mm (when ground-truth markers match the default landmark set), sec_per_frame,
+    energy_evals_per_frame, and apf_calls_per_frame when a tracker reports ``apf_called``.
+    """
+    F = len(estimates)
+    tracked = seconds[1:]
+    out: dict = {"frames": F}
+    if seq.gt is not None:
+        chis = np.stack([e.chi for e in estimates])
+        alpha = estimates[-1].alpha
+        shaped = body.shaped(alpha)
+        out.update(mpjpe_summary(joint_errors(shaped.joints(chis), seq.gt.joints[:F], body.joint_names)))
+        landmarks = LandmarkSet(body)
+        if tuple(seq.gt.marker_names) == landmarks.names:
+            est_markers = landmarks.positions(shaped, chis)
+            out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
+    out["sec_per_frame"] = float(np.mean(tracked)) if tracked else 0.0
+    evals = [e.diagnostics.get("energy_evaluations", 0) for e in estimates[1:]]
+    out["energy_evals_per_frame"] = float(np.mean(evals)) if evals else 0.0
+    calls = [e.diagnostics["apf_called"] for e in estimates[1:] if "apf_called" in e.diagnostics]
+    if calls:
+        out["apf_calls_per_frame"] = float(np.mean(calls))
+    return out
