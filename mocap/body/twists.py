@@ -69,24 +69,24 @@ def so3_log(R: np.ndarray) -> np.ndarray:
     R: (*, 3, 3) -> (*, 3).
     """
     R = np.asarray(R)
-    cos = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    lead = R.shape[:-2]
+    Rf = R.reshape(-1, 3, 3)
+    cos = np.clip((np.trace(Rf, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
     theta = np.arccos(cos)
-    w = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0],
-                  R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    w = np.stack([Rf[:, 2, 1] - Rf[:, 1, 2], Rf[:, 0, 2] - Rf[:, 2, 0], Rf[:, 1, 0] - Rf[:, 0, 1]], axis=-1)
     sin = np.sin(theta)
     near_pi = sin < 1e-6
     scale = np.where(theta < 1e-6, 0.5, theta / (2.0 * np.where(near_pi, 1.0, sin)))
-    out = w * scale[..., None]
-    if np.any(near_pi & (theta > 1.0)):
-        # theta ~ pi: axis from the symmetric part, R = 2 n n^T - I.
-        idx = np.nonzero(near_pi & (theta > 1.0))
-        Rs = R[idx]
-        B = (Rs + np.eye(3)) / 2.0
+    out = w * scale[:, None]
+    big = np.flatnonzero(near_pi & (theta > 1.0))
+    if len(big):
+        # theta ~ pi: the axis from the symmetric part, R = 2 n n^T - I
+        B = (Rf[big] + np.eye(3)) / 2.0
         col = np.argmax(np.diagonal(B, axis1=-2, axis2=-1), axis=-1)
-        n = B[np.arange(len(Rs)), :, col]
+        n = B[np.arange(len(big)), :, col]
         n = n / np.linalg.norm(n, axis=-1, keepdims=True)
-        out[idx] = n * theta[idx][..., None]
-    return out.astype(R.dtype, copy=False)
+        out[big] = n * theta[big][:, None]
+    return out.reshape(lead + (3,)).astype(R.dtype, copy=False)
 
 
 def se3_exp(xi: np.ndarray) -> np.ndarray:

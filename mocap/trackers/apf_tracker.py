@@ -4,7 +4,7 @@ and ``apf_prior`` (25 x 10, with the pose prior E_P), Zhang et al. 2013, Sec. 4.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import EnergyWeights, FrameEnergy
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes
 
 
 def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: float) -> np.ndarray:
@@ -29,15 +30,23 @@ class APFTracker:
     def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, weights: EnergyWeights,
                  rng: np.random.Generator, prior: PosePrior | None = None, scale: float = 0.25,
                  init_std: Sequence[float] = (0.03, 0.03, 0.1), prediction_damping: float = 1.0,
-                 keep_particles: bool = False, name: str = "apf"):
+                 keep_particles: bool = False, name: str = "apf",
+                 initialization: Mapping | None = None):
         self.body, self.rig, self.settings, self.weights = body, rig, settings, weights
         self.rng, self.prior, self.scale, self.name = rng, prior, scale, name
         self.std0 = diffusion_std(body, *init_std)
         self.damping = prediction_damping
         self.keep_particles = keep_particles
+        self.init_settings = InitSettings(**dict(initialization or {}))
         self.history: list[np.ndarray] = []
         self.shaped = None
         self.energy: SilhouetteEnergy | None = None
+
+    def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
+        chi, alpha, _ = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.rng,
+                                                    self.init_settings)
+        return chi, alpha
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         chi = np.asarray(chi, np.float64)

@@ -19,16 +19,30 @@ def run_track(tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, cwd=REPO, timeout=600)
 
 
+# small budgets per tracker family, and the energy evaluations per frame they imply
+FAST = {
+    "apf": (["tracker.particles=8", "tracker.layers=2"], 16),
+    "local": (["tracker.iterations=2"], 0),
+    "hybrid": (["tracker.apf.particles=8", "tracker.apf.layers=2", "tracker.local.iterations=2"], None),
+}
+
+
+def fast_overrides(tracker: str) -> tuple[list[str], int | None]:
+    family = "apf" if tracker.startswith("apf") else tracker
+    return FAST[family]
+
+
 @pytest.mark.parametrize("tracker", TRACKERS)
 def test_each_tracker_runs_two_frames_and_writes_metrics(tracker, tmp_path):
-    r = run_track(tmp_path, f"tracker={tracker}", "data=walk_small", "frames=2",
-                  "tracker.particles=8", "tracker.layers=2")
+    overrides, evals = fast_overrides(tracker)
+    r = run_track(tmp_path, f"tracker={tracker}", "data=walk_small", "frames=2", *overrides)
     assert r.returncode == 0, r.stderr[-3000:]
     m = json.loads((tmp_path / "metrics.json").read_text())
     assert REQUIRED <= m.keys()
     assert m["tracker"] == tracker and m["frames"] == 2 and len(m["per_frame_mm"]) == 2
     assert len(m["per_joint_mm"]) == 15 and m["mpjpe_mm"] > 0
-    assert m["energy_evals_per_frame"] == 16
+    if evals is not None:
+        assert m["energy_evals_per_frame"] == evals
 
 
 def test_unknown_tracker_fails_at_configuration_time(tmp_path):

@@ -1,0 +1,145 @@
+"""Contour correspondences (Zhang et al. 2013, Sec. 4.1; Rosenhahn et al.): points of the
+model's projected occluding contour matched to the closest points of the observed
+silhouette contour, each pair turned into a 3D model point and the Plücker line of the
+observed pixel's ray.
+
+Matching goes both ways: every visible model contour point to its closest observed contour
+point, and every observed contour point to its closest model contour point (so an observed
+limb the model has lost still pulls it back).
+
+The model's occluding contour is the set of mesh edges whose two faces face opposite ways
+as seen from the camera centre (the contour generator); of those vertices we keep the ones
+that are not hidden by other body parts, i.e. that project onto the outline of the model's
+own silhouette. Matches farther than ``max(reject_factor x 90th percentile, min_reject_px)``
+or ``max_distance`` (a fraction of the image height) are rejected as outliers: a limb that
+moved shows up as a tail of long matches, which must survive the rejection.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import trimesh
+from scipy.spatial import cKDTree
+
+from mocap.body.model import BodyModel
+from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project
+from mocap.local.solver import PointLines
+from mocap.render import get_rasterizer
+
+
+@dataclass(frozen=True)
+class ObservedContours:
+    """Per view: contour points (M, 2) in camera pixels and their KD-tree (None: no contour)."""
+
+    points: list[np.ndarray]
+    trees: list[cKDTree | None]
+
+
+def observed_contours(masks: np.ndarray) -> ObservedContours:
+    """Outline pixels of observed silhouettes (C, H, W) bool, once per frame."""
+    pts, trees = [], []
+    for m in masks:
+        contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+        p = (np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64) if contours
+             else np.zeros((0, 2)))
+        pts.append(p)
+        trees.append(cKDTree(p) if len(p) else None)
+    return ObservedContours(pts, trees)
+
+
+class ContourMatcher:
+    """Builds contour correspondences for one body topology and rig."""
+
+    def __init__(self, body: BodyModel, rig: Rig, visibility_scale: float = 0.5,
+                 visibility_tolerance_px: float = 1.5, reject_factor: float = 3.0,
+                 min_reject_px: float = 10.0, max_distance: float = 0.08, stride: int = 1,
+                 observed_stride: int = 4):
+        self.body, self.rig = body, rig
+        mesh = trimesh.Trimesh(body.data.mean, body.faces, process=False)
+        self.edge_faces = np.asarray(mesh.face_adjacency)              # (E, 2)
+        self.edge_vertices = np.asarray(mesh.face_adjacency_edges)     # (E, 2)
+        self.scale = visibility_scale
+        self.small = rig.scaled(visibility_scale)
+        w, h = (int(v) for v in self.small.sizes[0])
+        self.small_size = (h, w)
+        self.raster = get_rasterizer(body.faces, body.num_vertices)
+        r = int(np.ceil(visibility_tolerance_px))
+        self.kernel3 = np.ones((3, 3), np.uint8)
+        self.kernel_tol = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
+        self.max_distance_px = max_distance * float(rig.sizes[0][1])
+        self.stride, self.observed_stride = stride, observed_stride
+
+    def contour_vertices(self, verts: np.ndarray, centers: np.ndarray) -> list[np.ndarray]:
+        """Vertex ids on the contour generator seen from each camera centre (C, 3)."""
+        tri = verts[self.body.faces]
+        normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        centroids = tri.mean(axis=1)
+        # n . (x - c) for every view at once: (C, F)
+        facing = (np.einsum("fc,fc->f", normals, centroids)[None] - centers @ normals.T) < 0
+        f = self.edge_faces
+        return [np.unique(self.edge_vertices[fa[f[:, 0]] != fa[f[:, 1]]]) for fa in facing]
+
+    def __call__(self, verts: np.ndarray, observed: ObservedContours) -> tuple[PointLines, dict]:
+        """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
+        views without an observed contour."""
+        h, w = self.small_size
+        px_small, depth_small = project(self.small, verts, return_depth=True)
+        model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
+        X, limbs, D, M = [], [], [], []
+        counts, empty = [], []
+        generators = self.contour_vertices(verts, self.rig.centers)
+        for c, cam in enumerate(self.rig):
+            tree = observed.trees[c]
+            if tree is None:
+                counts.append(0)
+                empty.append(cam.name)
+                continue
+            vid = generators[c][:: self.stride]
+            if len(vid) == 0:
+                counts.append(0)
+                continue
+            # visible: the vertex projects onto the outline of the model's own silhouette
+            m = model_masks[c].astype(np.uint8)
+            outline = m - cv2.erode(m, self.kernel3)
+            near_outline = cv2.dilate(outline, self.kernel_tol)
+            ps = px_small[c, vid]
+            inside = (ps[:, 0] >= 0) & (ps[:, 0] <= w - 1) & (ps[:, 1] >= 0) & (ps[:, 1] <= h - 1)
+            vid, ps = vid[inside], ps[inside]
+            ui, vi = np.round(ps).astype(int).T
+            vid = vid[near_outline[vi, ui] > 0]
+            if len(vid) == 0:
+                counts.append(0)
+                continue
+            p = project(cam, verts[vid])
+            # both directions: each model contour point to its closest observed contour
+            # point, and each observed contour point to its closest model contour point, so
+            # that observed outline no model part explains still pulls the model
+            dist, idx = tree.query(p)
+            obs_pts = observed.points[c][:: self.observed_stride]
+            back_dist, back_idx = cKDTree(p).query(obs_pts)
+            vid = np.concatenate([vid, vid[back_idx]])
+            q = np.concatenate([observed.points[c][idx], obs_pts])
+            dist = np.concatenate([dist, back_dist])
+            thr = min(max(self.reject_factor * np.percentile(dist, 90), self.min_reject_px),
+                      self.max_distance_px)
+            keep = dist <= thr
+            vid, q = vid[keep], q[keep]
+            origin, direction = pixel_rays(cam, q)
+            d, mo = plucker_from_rays(origin, direction)
+            X.append(verts[vid])
+            limbs.append(self.body.part_labels[vid])
+            D.append(d)
+            M.append(mo)
+            counts.append(int(len(vid)))
+        if X:
+            pts = np.concatenate(X).astype(np.float64)
+            corr = PointLines(pts, np.concatenate(limbs), np.concatenate(D), np.concatenate(M),
+                              np.ones(len(pts)))
+        else:
+            z = np.zeros((0, 3))
+            corr = PointLines(z, np.zeros(0, int), z, z, np.zeros(0))
+        return corr, {"contour_per_view": counts, "views_without_contour": empty}

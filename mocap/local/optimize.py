@@ -1,0 +1,44 @@
+"""The local optimizer: Gauss-Newton iterations of Eq. 9 with fresh correspondences."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from mocap.body.model import ShapedBody
+from mocap.local.jacobian import dof_frames
+from mocap.local.solver import PointLines, gauss_newton_step
+
+Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]
+
+
+def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, iterations: int = 5,
+                  tolerance: float = 1e-4, damping: float = 1e-4, min_correspondences: int = 12,
+                  free: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+    """Iterate: pose the body, find correspondences, solve the linearised system, update.
+
+    Stops after ``iterations`` or when the update is below ``tolerance`` (rad / m). An
+    iteration whose system cannot be solved skips its update and says why in the
+    diagnostics; the pose returned is always finite.
+    """
+    body = shaped.model
+    chi = np.asarray(chi, np.float64)
+    diag: dict = {"iterations": 0, "skipped": [], "correspondences": [], "rms_m": []}
+    for it in range(iterations):
+        verts = shaped.pose(chi).vertices[0].astype(np.float64)
+        corr, info = correspond(verts)
+        diag["correspondences"].append(len(corr))
+        diag.setdefault("per_iteration", []).append(info)
+        w, q, _ = dof_frames(body, shaped.axes, shaped.rest_joints, chi)
+        step = gauss_newton_step(body, chi, corr, w, q, damping=damping,
+                                 min_correspondences=min_correspondences, free=free)
+        diag["iterations"] = it + 1
+        diag["rms_m"].append(step.rms_before)
+        if not step.ok:
+            diag["skipped"].append(f"iteration {it}: {step.reason}")
+            break
+        chi = step.chi
+        if np.abs(step.delta).max() < tolerance:
+            break
+    return chi, diag

@@ -1,0 +1,97 @@
+"""Pose from point-line correspondences by linearised twists (Zhang et al. 2013, Eq. 7-9).
+
+Each correspondence pairs a model point X_i (posed, attached to limb k_i) with a 3D ray
+given as a Plücker line (d_i, m_i), d_i unit. The error of Eq. 6 is e_i = X_i x d_i - m_i,
+whose norm is the distance of X_i from the ray. With the first-order expansion of every
+exponential (Eq. 8), X_i + J_i delta, the error becomes e_i - [d_i]x J_i delta: linear in
+delta = (dv, dw, dtheta). One Gauss-Newton step solves the weighted least squares (Eq. 9)
+with a small Levenberg damping, then updates the pose exactly: the global twist as
+exp(hat(dxi)) exp(hat(xi_0)), the angles additively, clipped to the joint limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.body.model import BodyModel
+from mocap.body.twists import hat, se3_exp, se3_log
+from mocap.local.jacobian import point_jacobians
+
+
+@dataclass(frozen=True)
+class PointLines:
+    """N correspondences: points (N, 3) posed model points, limbs (N,) joint index,
+    d (N, 3) unit directions and m (N, 3) moments of the rays, weights (N,)."""
+
+    points: np.ndarray
+    limbs: np.ndarray
+    d: np.ndarray
+    m: np.ndarray
+    weights: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+@dataclass(frozen=True)
+class StepResult:
+    chi: np.ndarray
+    delta: np.ndarray
+    ok: bool
+    reason: str = ""
+    rms_before: float = 0.0     # weighted RMS point-line distance (m) before the step
+
+
+def point_line_residuals(points: np.ndarray, d: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """e = X x d - m, (N, 3)."""
+    return np.cross(points, d) - m
+
+
+def linear_system(body: BodyModel, corr: PointLines, w: np.ndarray, q: np.ndarray,
+                  free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stacked residuals e0 (3N,), matrix A (3N, D) with e(delta) = e0 + A delta, weights (3N,)."""
+    Jac = point_jacobians(body, corr.points, corr.limbs, w, q)        # (N, 3, D)
+    A = -hat(corr.d) @ Jac                                             # (N, 3, D)
+    if free is not None:
+        A = A * free[None, None, :]
+    e0 = point_line_residuals(corr.points, corr.d, corr.m)
+    return e0.reshape(-1), A.reshape(-1, body.num_dofs), np.repeat(corr.weights, 3)
+
+
+def apply_delta(body: BodyModel, chi: np.ndarray, delta: np.ndarray) -> np.ndarray:
+    """The pose after an increment: global twist composed on the left, angles added, limits."""
+    out = np.asarray(chi, np.float64).copy()
+    out[:6] = se3_log(se3_exp(delta[:6]) @ se3_exp(out[:6]))
+    out[6:] += delta[6:]
+    return np.clip(out, body.limits[:, 0], body.limits[:, 1])
+
+
+def gauss_newton_step(body: BodyModel, chi: np.ndarray, corr: PointLines, w: np.ndarray,
+                      q: np.ndarray, damping: float = 1e-4, min_correspondences: int = 12,
+                      max_step: float = 0.5, free: np.ndarray | None = None) -> StepResult:
+    """One linearised solve of Eq. 9. Skips the update (ok=False, with the reason) when there
+    are too few correspondences, the system is degenerate, or the result is not finite."""
+    chi = np.asarray(chi, np.float64)
+    if len(corr) < min_correspondences:
+        return StepResult(chi, np.zeros_like(chi), False,
+                          f"too few correspondences ({len(corr)} < {min_correspondences})")
+    e0, A, wt = linear_system(body, corr, w, q, free)
+    rms = float(np.sqrt((wt * e0**2).sum() / max(wt.sum(), 1e-12)))
+    H = A.T @ (wt[:, None] * A)
+    g = A.T @ (wt * e0)
+    scale = np.maximum(np.diag(H), 1e-12)
+    Hd = H + damping * np.diag(scale) + 1e-9 * np.eye(len(H))
+    try:
+        delta = -np.linalg.solve(Hd, g)
+    except np.linalg.LinAlgError:
+        return StepResult(chi, np.zeros_like(chi), False, "singular normal equations", rms)
+    if not np.all(np.isfinite(delta)):
+        return StepResult(chi, np.zeros_like(chi), False, "non-finite update", rms)
+    if free is not None:
+        delta = np.where(free, delta, 0.0)
+    big = np.abs(delta[3:]).max() if len(delta) > 3 else 0.0
+    if big > max_step:                       # keep the linearisation valid
+        delta = delta * (max_step / big)
+    return StepResult(apply_delta(body, chi, delta), delta, True, "", rms)

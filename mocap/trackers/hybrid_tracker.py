@@ -1,0 +1,78 @@
+"""The hybrid tracker (``hybrid``), the full system of Zhang et al. 2013: local optimisation
+every frame; when a limb is misaligned afterwards, the prior-constrained annealed particle
+filter searches the degrees of freedom of the misaligned limbs only (the others held at the
+local result), and a short local refinement follows."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from mocap.body.model import BodyModel
+from mocap.cameras import Rig
+from mocap.energy.prior import PosePrior
+from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
+from mocap.energy.smoothness import predict_constant_velocity
+from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.apf_tracker import diffusion_std
+from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.local_tracker import LocalTracker
+
+
+class HybridTracker(LocalTracker):
+    def __init__(self, body: BodyModel, rig: Rig, rng: np.random.Generator, settings: APFSettings,
+                 weights: EnergyWeights, prior: PosePrior | None, scale: float,
+                 init_std: tuple[float, float, float] = (0.03, 0.03, 0.25),
+                 refine_iterations: int = 3, keep_particles: bool = False, name: str = "hybrid",
+                 **local: Mapping):
+        super().__init__(body, rig, name=name, rng=rng, **local)
+        self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
+        self.scale, self.std0 = scale, diffusion_std(body, *init_std)
+        self.refine_iterations, self.keep_particles = refine_iterations, keep_particles
+
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
+        super().initialize(chi, alpha)
+        self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale)
+
+    def step(self, frame: Frame) -> Estimate:
+        if self.shaped is None:
+            raise RuntimeError("initialize() the tracker before step()")
+        t0 = time.perf_counter()
+        predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
+        chi, diag = self.local_step(frame, predicted)
+        t1 = time.perf_counter()
+        check = self.detector(self.shaped.pose(chi).vertices[0], frame.masks)
+        t2 = time.perf_counter()
+        diag.update({"misaligned_limbs": check.names, "limb_errors": check.errors, "apf_called": 0})
+        timings = {"local": t1 - t0, "misalignment": t2 - t1}
+        if check.names:
+            free = self.detector.free_dofs(check)
+            target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+            energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior)
+            chi_apf, apf = run_apf(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
+                                   keep_particles=self.keep_particles, free=free,
+                                   root_point=self.shaped.rest_joints[0])
+            t3 = time.perf_counter()
+            refine_iters, self.iterations = self.iterations, self.refine_iterations
+            try:
+                chi, refine = self.local_step(frame, chi_apf)
+            finally:
+                self.iterations = refine_iters
+            terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}
+            diag.update({
+                "apf_called": 1, "apf_free_dofs": [self.body.dof_names[d] for d in np.flatnonzero(free)],
+                "energy_terms": terms, "energy": float(sum(terms.values())),
+                "layers": {"energy_min": apf.energy_min, "energy_mean": apf.energy_mean, "beta": apf.beta,
+                           "survival": apf.survival, "ess": apf.ess, "spread": apf.spread},
+                "particles": apf.particles if self.keep_particles else None,
+                "energy_evaluations": apf.evaluations, "refine": refine["local"],
+                "ignored_views": list(target.ignored)})
+            timings.update({"apf": t3 - t2, "refine": time.perf_counter() - t3})
+        if self.sift is not None and frame.images is not None:
+            self.sift.remember(frame.images, self.shaped.pose(chi).vertices[0].astype(np.float64))
+        self.history = (self.history + [chi])[-3:]
+        diag["timings"] = timings
+        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=diag)

@@ -1,0 +1,113 @@
+"""The local tracker (``local``): contour (+ SIFT) correspondences and linearised twists
+(Zhang et al. 2013, Sec. 4.1), started each frame from a constant-velocity prediction."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from mocap.body.model import BodyModel
+from mocap.cameras import Rig
+from mocap.energy.smoothness import predict_constant_velocity
+from mocap.local.contour import ContourMatcher, observed_contours
+from mocap.local.misalignment import MisalignmentDetector
+from mocap.local.optimize import optimize_pose
+from mocap.local.sift import SiftTracker
+from mocap.local.solver import PointLines
+from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes
+
+
+def merge(parts: list[PointLines]) -> PointLines:
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        z = np.zeros((0, 3))
+        return PointLines(z, np.zeros(0, int), z, z, np.zeros(0))
+    return PointLines(*(np.concatenate([getattr(p, f) for p in parts])
+                        for f in ("points", "limbs", "d", "m", "weights")))
+
+
+class LocalTracker:
+    """Local optimisation only: fast, accurate while the motion is slow, cannot recover."""
+
+    def __init__(self, body: BodyModel, rig: Rig, iterations: int = 6, tolerance: float = 1e-4,
+                 damping: float = 1e-3, prediction_damping: float = 1.0,
+                 contour: Mapping | None = None, sift: Mapping | None = None,
+                 misalignment: Mapping | None = None, name: str = "local",
+                 rng: np.random.Generator | None = None, initialization: Mapping | None = None):
+        self.body, self.rig, self.name = body, rig, name
+        self.init_rng = rng if rng is not None else np.random.default_rng(0)
+        self.init_settings = InitSettings(**dict(initialization or {}))
+        self.iterations, self.tolerance, self.damping = iterations, tolerance, damping
+        self.prediction_damping = prediction_damping
+        self.contour_cfg = dict(contour or {})
+        self.sift_cfg = dict(sift or {"enabled": True})
+        self.misalignment_cfg = dict(misalignment or {})
+        self.shaped = None
+        self.history: list[np.ndarray] = []
+
+    def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
+        chi, alpha, _ = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.init_rng,
+                                                    self.init_settings)
+        return chi, alpha
+
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
+        chi = np.asarray(chi, np.float64)
+        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
+            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        self.shaped = self.body.shaped(alpha)
+        self.matcher = ContourMatcher(self.body, self.rig, **self.contour_cfg)
+        sift = dict(self.sift_cfg)
+        self.sift = SiftTracker(self.body, self.rig, **{k: v for k, v in sift.items() if k != "enabled"}) \
+            if sift.pop("enabled", True) else None
+        self.detector = MisalignmentDetector(self.body, self.rig, **self.misalignment_cfg)
+        self.history = [chi]
+        self.last_images = None
+
+    def local_step(self, frame: Frame, start: np.ndarray,
+                   free: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+        """Optimise from ``start`` on this frame; diagnostics include the correspondence counts."""
+        if frame.masks is None:
+            raise ValueError(f"frame {frame.index}: the local tracker needs silhouette masks")
+        obs = observed_contours(frame.masks)
+        sift_pairs = None
+        diag: dict = {}
+        if self.sift is not None:
+            if frame.images is None:
+                diag["sift"] = "no images in this sequence: contour correspondences only"
+            else:
+                prev_verts = self.shaped.pose(self.history[-1]).vertices[0].astype(np.float64)
+                sift_pairs, sift_info = self.sift.match(frame.images, prev_verts)
+                diag["sift"] = sift_info
+
+        def correspond(verts: np.ndarray):
+            corr, info = self.matcher(verts, obs)
+            if sift_pairs is not None:
+                corr = merge([corr, sift_pairs.correspondences(verts)])
+            return corr, info
+
+        chi, opt = optimize_pose(self.shaped, start, correspond, self.iterations, self.tolerance,
+                                 self.damping, free=free)
+        diag.update({"local": {k: v for k, v in opt.items() if k != "per_iteration"},
+                     "views_without_contour": opt["per_iteration"][-1].get("views_without_contour", [])
+                     if opt.get("per_iteration") else []})
+        return chi, diag
+
+    def step(self, frame: Frame) -> Estimate:
+        if self.shaped is None:
+            raise RuntimeError("initialize() the tracker before step()")
+        t0 = time.perf_counter()
+        start = predict_constant_velocity(self.history[-2:], self.prediction_damping)
+        chi, diag = self.local_step(frame, start)
+        t1 = time.perf_counter()
+        limbs = self.detector(self.shaped.pose(chi).vertices[0], frame.masks)
+        t2 = time.perf_counter()
+        if self.sift is not None and frame.images is not None:
+            self.sift.remember(frame.images, self.shaped.pose(chi).vertices[0].astype(np.float64))
+        self.history = (self.history + [chi])[-3:]
+        diag.update({"misaligned_limbs": limbs.names, "limb_errors": limbs.errors,
+                     "timings": {"local": t1 - t0, "misalignment": t2 - t1}})
+        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=diag)

@@ -1,0 +1,86 @@
+import numpy as np
+import pytest
+
+from mocap.cameras import plucker_from_rays, ring_rig
+from mocap.local.jacobian import dof_frames, point_jacobians
+from mocap.local.optimize import optimize_pose
+from mocap.local.solver import PointLines, apply_delta, gauss_newton_step
+
+
+@pytest.fixture(scope="module")
+def scene(body64):
+    rng = np.random.default_rng(0)
+    sb = body64.shaped(rng.normal(0, 0.5, body64.num_shape))
+    truth = body64.zero_pose().astype(np.float64)
+    truth[:3] = [0.3, -0.2, 0.0]
+    truth[3:6] = [0.0, 0.0, 0.4]
+    lo, hi = body64.limits[6:, 0] + 0.1, body64.limits[6:, 1] - 0.1     # strictly inside
+    truth[6:] = np.clip(rng.uniform(-0.3, 0.3, body64.num_dofs - 6), lo, hi)
+    rig = ring_rig(4, 3.5, 1.5, 500, 500, fov_deg=45)
+    vid = rng.choice(body64.num_vertices, 600, replace=False)
+    return sb, truth, rig, vid
+
+
+def exact_correspondences(sb, truth, rig, vid):
+    """Rays from each camera centre through the true positions of the chosen vertices."""
+    target = sb.pose(truth).vertices[0][vid].astype(np.float64)
+
+    def correspond(verts):
+        pts, d, m, limbs = [], [], [], []
+        for cam in rig:
+            dd, mm = plucker_from_rays(np.broadcast_to(cam.center, target.shape), target - cam.center)
+            pts.append(verts[vid])
+            d.append(dd)
+            m.append(mm)
+            limbs.append(sb.model.part_labels[vid])
+        n = len(vid) * len(rig)
+        return PointLines(np.concatenate(pts), np.concatenate(limbs), np.concatenate(d),
+                          np.concatenate(m), np.ones(n)), {}
+
+    return correspond
+
+
+def test_linearised_jacobian_matches_finite_differences(scene):
+    sb, truth, _, vid = scene
+    body = sb.model
+    w, q, _ = dof_frames(body, sb.axes, sb.rest_joints, truth)
+    X = sb.pose(truth).vertices[0][vid].astype(np.float64)
+    # rigidly attached points (one joint each): vertices skinned to a single joint
+    single = body.weights[vid].max(axis=1) > 0.999
+    Jac = point_jacobians(body, X, body.part_labels[vid], w, q)
+    eps = 1e-6
+    for k in range(body.num_dofs):
+        delta = np.zeros(body.num_dofs)
+        delta[k] = eps
+        Xp = sb.pose(apply_delta(body, truth, delta)).vertices[0][vid]
+        Xm = sb.pose(apply_delta(body, truth, -delta)).vertices[0][vid]
+        fd = (Xp - Xm) / (2 * eps)
+        np.testing.assert_allclose(Jac[single, :, k], fd[single], atol=1e-6, err_msg=body.dof_names[k])
+
+
+def test_gauss_newton_converges_to_the_true_pose_from_a_small_offset(scene):
+    sb, truth, rig, vid = scene
+    body = sb.model
+    start = truth.copy()
+    start[:3] += [0.03, -0.02, 0.01]
+    start[3:6] += [0.02, -0.01, 0.03]
+    start[6:] += np.deg2rad(5.0) * np.random.default_rng(1).choice([-1, 1], body.num_dofs - 6)
+    start = np.clip(start, body.limits[:, 0], body.limits[:, 1])
+    chi, diag = optimize_pose(sb, start, exact_correspondences(sb, truth, rig, vid), iterations=8,
+                              tolerance=1e-10)
+    J_true, J_est = sb.joints(truth)[0], sb.joints(chi)[0]
+    assert 1e3 * np.linalg.norm(J_est - J_true, axis=1).max() < 0.5       # < 0.5 mm
+    assert diag["rms_m"][-1] < 1e-4 and diag["rms_m"][0] > 1e-2
+
+
+def test_too_few_correspondences_skip_the_update_and_say_so(scene):
+    sb, truth, _, _ = scene
+    body = sb.model
+    w, q, _ = dof_frames(body, sb.axes, sb.rest_joints, truth)
+    z = np.zeros((3, 3))
+    few = PointLines(z + 1.0, np.zeros(3, int), np.tile([0.0, 0.0, 1.0], (3, 1)), z, np.ones(3))
+    step = gauss_newton_step(body, truth, few, w, q)
+    assert not step.ok and "too few correspondences" in step.reason
+    np.testing.assert_array_equal(step.chi, truth)
+    chi, diag = optimize_pose(sb, truth, lambda v: (few, {}))
+    assert np.all(np.isfinite(chi)) and diag["skipped"]
