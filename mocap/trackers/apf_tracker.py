@@ -16,7 +16,7 @@ from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import EnergyWeights, FrameEnergy
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes
+from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
 
 
 def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: float) -> np.ndarray:
@@ -24,7 +24,7 @@ def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: f
     return np.r_[np.full(3, translation), np.full(3, rotation), np.full(body.num_dofs - 6, joint)]
 
 
-class APFTracker:
+class APFTracker(SilhouetteInitialisation):
     """Tracks one subject of known shape from multi-view silhouettes."""
 
     def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, weights: EnergyWeights,
@@ -38,20 +38,13 @@ class APFTracker:
         self.damping = prediction_damping
         self.keep_particles = keep_particles
         self.init_settings = InitSettings(**dict(initialization or {}))
+        self.init_rng = rng
         self.history: list[np.ndarray] = []
         self.shaped = None
         self.energy: SilhouetteEnergy | None = None
 
-    def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
-        chi, alpha, _ = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.rng,
-                                                    self.init_settings)
-        return chi, alpha
-
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
-        chi = np.asarray(chi, np.float64)
-        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
-            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        chi = self.checked_pose(chi)
         self.shaped = self.body.shaped(alpha)
         self.energy = SilhouetteEnergy(self.shaped, self.rig, self.scale)
         self.history = [chi]

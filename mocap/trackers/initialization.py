@@ -140,3 +140,20 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     matcher = ContourMatcher(body, rig)
     chi, _ = optimize_pose(shaped, chi, lambda v: matcher(v, obs), settings.local_iterations)
     return chi, alpha, diag
+
+
+class SilhouetteInitialisation:
+    """Mixin of the silhouette trackers: ``initial_estimate`` from frame 0's masks, and the
+    validation of an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``."""
+
+    def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
+        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
+        chi, alpha, _ = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.init_rng,
+                                                    self.init_settings)
+        return chi, alpha
+
+    def checked_pose(self, chi: np.ndarray) -> np.ndarray:
+        chi = np.asarray(chi, np.float64)
+        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
+            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        return chi

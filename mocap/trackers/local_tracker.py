@@ -17,7 +17,7 @@ from mocap.local.optimize import optimize_pose
 from mocap.local.sift import SiftTracker
 from mocap.local.solver import PointLines
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes
+from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
 
 
 def merge(parts: list[PointLines]) -> PointLines:
@@ -29,7 +29,7 @@ def merge(parts: list[PointLines]) -> PointLines:
                         for f in ("points", "limbs", "d", "m", "weights")))
 
 
-class LocalTracker:
+class LocalTracker(SilhouetteInitialisation):
     """Local optimisation only: fast, accurate while the motion is slow, cannot recover."""
 
     def __init__(self, body: BodyModel, rig: Rig, iterations: int = 6, tolerance: float = 1e-4,
@@ -48,16 +48,8 @@ class LocalTracker:
         self.shaped = None
         self.history: list[np.ndarray] = []
 
-    def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
-        chi, alpha, _ = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.init_rng,
-                                                    self.init_settings)
-        return chi, alpha
-
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
-        chi = np.asarray(chi, np.float64)
-        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
-            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        chi = self.checked_pose(chi)
         self.shaped = self.body.shaped(alpha)
         self.matcher = ContourMatcher(self.body, self.rig, **self.contour_cfg)
         sift = dict(self.sift_cfg)
