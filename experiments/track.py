@@ -34,6 +34,15 @@ def write_json(path: Path, data: dict) -> None:
     tmp.replace(path)
 
 
+def search_budget(tracker_cfg: DictConfig) -> dict:
+    """Particles, layers and energy terms of a tracker's global search (the APF section of a
+    hybrid tracker; zeros for a tracker without one)."""
+    apf = tracker_cfg.get("apf") or tracker_cfg
+    energy = apf.get("energy") or {}
+    return {"particles": int(apf.get("particles", 0) or 0), "layers": int(apf.get("layers", 0) or 0),
+            "energy_terms": [k for k, v in energy.items() if v]}
+
+
 def is_complete(out_dir: Path, cfg: DictConfig) -> bool:
     """A finished run: its metrics.json and (when recording) its recording.rrd exist."""
     done = (out_dir / "metrics.json").is_file()
@@ -97,8 +106,7 @@ def main(cfg: DictConfig) -> None:
     metrics = {
         "tracker": tracker.name, "seed": int(cfg.seed), "data": seq.name,
         **run_metrics(body, seq, result.estimates, result.seconds),
-        "particles": int(cfg.tracker.get("particles", 0)), "layers": int(cfg.tracker.get("layers", 0)),
-        "energy_terms": [k for k, v in (cfg.tracker.get("energy") or {}).items() if v],
+        **search_budget(cfg.tracker),
         "wall_seconds": wall, "tracking_seconds": tracking_seconds,
         "recording_seconds": recording_seconds[0],
         "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,

@@ -87,14 +87,18 @@ def table_rows(runs: list[dict]) -> list[dict]:
 
 
 def markdown(rows: list[dict], problems: list[tuple[str, str]], title: str) -> str:
+    extras = [(k, label) for k, label in (("apf_calls_per_frame", "APF calls / frame"),
+                                          ("mmta", "MMTA"), ("mmtp_mm", "MMTP (mm)"))
+              if any(k in r for r in rows)]
     out = [f"# {title}", "",
            "| tracker | data | particles x layers | energy terms | seeds | joint error (mm) "
-           "| s / frame | energy evals / frame |",
-           "|---|---|---|---|---|---|---|---|"]
+           "| s / frame | energy evals / frame |" + "".join(f" {label} |" for _, label in extras),
+           "|---|---|---|---|---|---|---|---|" + "---|" * len(extras)]
     for r in rows:
+        cells = "".join(f" {r[k]:.2f} |" if k in r else " - |" for k, _ in extras)
         out.append(f"| {r['tracker']} | {r['data']} | {r['particles_x_layers']} | {r['energy_terms']} | "
                    f"{r['seeds']} | {r['mpjpe_mean_mm']:.1f} ± {r['mpjpe_std_mm']:.1f} | "
-                   f"{r['sec_per_frame']:.2f} | {r['energy_evals_per_frame']:.0f} |")
+                   f"{r['sec_per_frame']:.2f} | {r['energy_evals_per_frame']:.0f} |{cells}")
     if problems:
         out += ["", "## Runs that failed or are missing", ""]
         out += [f"- `{d}`: {why}" for d, why in problems]
