@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mocap.body.twists import se3_exp, se3_log, so3_exp, so3_log
+from mocap.body.root_motion import interpolate_root, root_mean, root_spread
+from mocap.body.twists import se3_exp, se3_log, so3_exp
 
 EnergyFn = Callable[[np.ndarray], np.ndarray]
 
@@ -112,14 +113,6 @@ def reflect_into(x: np.ndarray, limits: np.ndarray) -> np.ndarray:
     return np.clip(x, lo, hi)
 
 
-def root_coordinates(x: np.ndarray, root_point: np.ndarray) -> np.ndarray:
-    """Well-conditioned coordinates of the global twists x[:, :6]: (P, 6) = the posed root
-    point (metres) and the rotation vector (radians)."""
-    T = se3_exp(x[:, :6])
-    p = (T[:, :3, :3] @ root_point) + T[:, :3, 3]
-    return np.concatenate([p, so3_log(T[:, :3, :3])], axis=1)
-
-
 def perturb(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rng: np.random.Generator,
             root_point: np.ndarray | None = None) -> np.ndarray:
     """Gaussian diffusion of particles (P, D) with per-DOF std (D,), reflected into limits.
@@ -146,10 +139,11 @@ def perturb(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rng: np.random.G
 
 
 def particle_spread(x: np.ndarray, root_point: np.ndarray | None) -> np.ndarray:
-    """Per-DOF std of particles (D,), the global part in root coordinates if given."""
+    """Per-DOF std of particles (D,), the global part measured on SE(3) if a root point is
+    given (rotation vectors wrap at pi: see :mod:`mocap.body.root_motion`)."""
     std = x.std(axis=0)
     if root_point is not None:
-        std[:6] = root_coordinates(x, root_point).std(axis=0)
+        std[:6] = root_spread(x[:, :6], root_point)
     return std
 
 
@@ -176,6 +170,8 @@ def run_apf(energy: EnergyFn, center: np.ndarray, init_std: np.ndarray, limits: 
         u = rng.random((P, 1))
         step = np.where(free, np.asarray(center) - previous, 0.0)
         x = x - (1.0 - u) * step
+        if root_point is not None and free[:6].any():
+            x[:, :6] = interpolate_root(np.asarray(previous)[:6], np.asarray(center)[:6], u[:, 0])
     x = perturb(x, std0, limits, rng, root_point)
     diag = APFDiagnostics()
     w = np.full(P, 1.0 / P)
@@ -205,4 +201,7 @@ def run_apf(energy: EnergyFn, center: np.ndarray, init_std: np.ndarray, limits: 
         x = perturb(x, np.where(free, std, 0.0), limits, rng, root_point)
     if settings.estimate == "best":
         return best_x, diag
-    return np.where(free, w @ x, center), diag
+    est = np.where(free, w @ x, center)
+    if root_point is not None and free[:6].any():
+        est[:6] = root_mean(x[:, :6], w, root_point)
+    return est, diag

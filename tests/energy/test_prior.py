@@ -63,8 +63,24 @@ def test_missing_or_foreign_prior_file_gives_a_clear_error(body, tmp_path):
 
 
 def test_smoothness_prediction_and_energy():
-    a, b = np.array([0.0, 1.0]), np.array([1.0, 1.5])
-    np.testing.assert_allclose(predict_constant_velocity([a, b]), [2.0, 2.0])
+    a, b = np.zeros(10), np.zeros(10)
+    a[:3], b[:3] = [0.0, 1.0, 0.0], [1.0, 1.5, 0.0]          # pure translations
+    a[6:], b[6:] = 0.1, 0.3
+    pred = predict_constant_velocity([a, b])
+    np.testing.assert_allclose(pred[:3], [2.0, 2.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(pred[6:], 0.5)
     np.testing.assert_allclose(predict_constant_velocity([b]), b)
-    chi = np.array([[2.0, 2.0], [3.0, 2.0]])
-    np.testing.assert_allclose(smoothness_energy(chi, np.array([2.0, 2.0])), [0, 1])
+    chi = np.stack([pred, pred + 1.0])
+    np.testing.assert_allclose(smoothness_energy(chi, pred), [0.0, 10.0])
+
+
+def test_prediction_of_a_heading_across_pi_continues_the_turn():
+    from mocap.body.twists import se3_exp, so3_log
+
+    a, b = np.zeros(6), np.zeros(6)
+    a[5], b[5] = np.pi - 0.1, -(np.pi - 0.1)                 # turning by +0.2 rad across pi
+    pred = predict_constant_velocity([a, b])
+    R = se3_exp(pred)[:3, :3]
+    expected = se3_exp(np.r_[0, 0, 0, 0, 0, np.pi + 0.3])[:3, :3]
+    np.testing.assert_allclose(R, expected, atol=1e-9)
+    assert abs(np.linalg.norm(so3_log(R)) - (np.pi - 0.3)) < 1e-9
