@@ -16,7 +16,9 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
 
     estimates: one per frame, frame 0 being the initialisation; seconds: step time per frame.
     Keys: mpjpe_mm, mpjpe_std_mm, per_joint_mm, per_frame_mm (with ground truth), mmta,
-    mmtp_mm (when ground-truth markers match the default landmark set), sec_per_frame,
+    mmtp_mm (when ground-truth markers match the default landmark set); without ground truth but
+    with detections, the keypoint metrics of :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics`
+    (reprojection error per view, bone-length stability, jitter); sec_per_frame,
     energy_evals_per_frame, and apf_calls_per_frame when a tracker reports ``apf_called``.
     """
     F = len(estimates)
@@ -31,6 +33,10 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
         if tuple(seq.gt.marker_names) == landmarks.names:
             est_markers = landmarks.positions(shaped, chis)
             out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
+    elif seq.detections is not None and len(seq.detections):
+        from mocap.eval.keypoint_metrics import keypoint_run_metrics
+
+        out.update(keypoint_run_metrics(body, seq, estimates))
     out["sec_per_frame"] = float(np.mean(tracked)) if tracked else 0.0
     evals = [e.diagnostics.get("energy_evaluations", 0) for e in estimates[1:]]
     out["energy_evals_per_frame"] = float(np.mean(evals)) if evals else 0.0

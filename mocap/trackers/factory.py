@@ -54,11 +54,11 @@ def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, nam
 
 
 def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str,
-                        particles: int, layers: int, survival: float = 0.5, diffusion: float = 0.7,
+                        particles: int, layers: int, survival: float = 0.25, diffusion: float = 0.7,
                         shrink: float = 0.85, min_std_fraction: float = 0.05, estimate: str = "mean",
                         gate: float = 0.04, min_views: int = 3, coherence_radius: float = 0.15,
                         coherence_weight: float = 1.0, landmarks: str | Sequence = "auto",
-                        init_std: Sequence[float] = (0.03, 0.05, 0.1), prediction_damping: float = 0.7,
+                        init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
                         min_confidence: float = 0.0, init: Mapping | None = None, crossover: bool = True,
                         keep_particles: bool = False):
     """The marker tracker of Canton-Ferrer et al. 2010 (``conf/tracker/marker_apf.yaml``).

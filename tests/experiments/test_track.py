@@ -24,7 +24,10 @@ FAST = {
     "apf": (["tracker.particles=8", "tracker.layers=2"], 16),
     "local": (["tracker.iterations=2"], 0),
     "hybrid": (["tracker.apf.particles=8", "tracker.apf.layers=2", "tracker.local.iterations=2"], None),
+    "marker_apf": (["tracker.particles=8", "tracker.layers=2"], 16),
 }
+# marker trackers need 2D detections
+DATA = {"marker_apf": "walk_markers_small"}
 
 
 def fast_overrides(tracker: str) -> tuple[list[str], int | None]:
@@ -35,7 +38,8 @@ def fast_overrides(tracker: str) -> tuple[list[str], int | None]:
 @pytest.mark.parametrize("tracker", TRACKERS)
 def test_each_tracker_runs_two_frames_and_writes_metrics(tracker, tmp_path):
     overrides, evals = fast_overrides(tracker)
-    r = run_track(tmp_path, f"tracker={tracker}", "data=walk_small", "frames=2", *overrides)
+    data = DATA.get(tracker, "walk_small")
+    r = run_track(tmp_path, f"tracker={tracker}", f"data={data}", "frames=2", *overrides)
     assert r.returncode == 0, r.stderr[-3000:]
     m = json.loads((tmp_path / "metrics.json").read_text())
     assert REQUIRED <= m.keys()

@@ -1,0 +1,279 @@
+"""Real recordings as keypoint detections: a calibration file plus one folder of OpenPose-style
+JSON files per camera (the layout of Pose2Sim projects), read into a :class:`Sequence` whose
+detections are labelled with the body's landmark names.
+
+    seq = load_openpose_sequence("../shared/data/pose2sim-demo")      # Calib.toml + pose/
+    seq = load_openpose_sequence(path, calibration="calib/Calib.toml", keypoints="pose-2d")
+
+Folders are matched to cameras by name, ignoring case, separators and a ``_json`` suffix
+(``cam01_json`` <-> ``cam_01``); frame numbers come from the last integer in each file name
+(``cam01.0042.json`` -> 42). Keypoints with confidence 0 (OpenPose's "not found") or below
+``min_confidence`` are dropped.
+
+Every frame may hold several people (the subject, bystanders). ``person="subject"`` keeps one:
+in the first frame, the assignment of one person per view that triangulates consistently in
+the most views and lies nearest the centre of the capture volume; afterwards, per view, the
+person whose keypoints lie nearest the reprojection of the subject's previous 3D keypoints
+(:func:`select_subject`).
+``person="all"`` keeps everyone as candidate detections (other people then act as
+false positives for the tracker).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import re
+from collections.abc import Sequence as Seq
+from pathlib import Path
+
+import numpy as np
+
+from mocap.cameras import Rig, load_calibration, project, triangulate
+from mocap.data.sequence import Detections, Sequence
+
+#: OpenPose keypoint index -> landmark name (see mocap/trackers/marker_landmarks.py)
+LAYOUTS: dict[str, tuple[str | None, ...]] = {
+    "BODY_25B": ("nose", "l_eye", "r_eye", "l_ear", "r_ear", "l_shoulder", "r_shoulder", "l_elbow",
+                 "r_elbow", "l_wrist", "r_wrist", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle",
+                 "r_ankle", "neck", "head_top", "l_toe", "l_small_toe", "l_heel", "r_toe",
+                 "r_small_toe", "r_heel"),
+    "BODY_25": ("nose", "neck_base", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow",
+                "l_wrist", "pelvis", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle",
+                "r_eye", "l_eye", "r_ear", "l_ear", "l_toe", "l_small_toe", "l_heel", "r_toe",
+                "r_small_toe", "r_heel"),
+    "COCO": ("nose", "neck_base", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow",
+             "l_wrist", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle", "r_eye",
+             "l_eye", "r_ear", "l_ear"),
+}
+
+
+class OpenPoseFormatError(ValueError):
+    """A keypoint file or folder layout that cannot be read; names the file and the problem."""
+
+    def __init__(self, path: str | Path, reason: str):
+        super().__init__(f"{path}: {reason}")
+        self.path, self.reason = str(path), reason
+
+
+def _key(name: str) -> str:
+    name = re.sub(r"[_\-\s.]?json$", "", name.lower())
+    return re.sub(r"[^a-z0-9]", "", name)
+
+
+def frame_number(path: Path) -> int:
+    nums = re.findall(r"\d+", path.stem)
+    if not nums:
+        raise OpenPoseFormatError(path, "no frame number in the file name")
+    return int(nums[-1])
+
+
+def read_people(path: str | Path, num_keypoints: int) -> np.ndarray:
+    """One OpenPose JSON file -> (N, K, 3) people x keypoints x (x, y, confidence)."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise OpenPoseFormatError(path, f"not valid JSON ({exc})") from None
+    people = data.get("people") if isinstance(data, dict) else None
+    if not isinstance(people, list):
+        raise OpenPoseFormatError(path, "expected an object with a 'people' list")
+    out = np.zeros((len(people), num_keypoints, 3))
+    for i, person in enumerate(people):
+        kp = person.get("pose_keypoints_2d") if isinstance(person, dict) else None
+        try:
+            arr = np.asarray(kp, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise OpenPoseFormatError(path, f"person {i}: 'pose_keypoints_2d' is not a list of "
+                                            "numbers") from None
+        if arr.size != 3 * num_keypoints:
+            raise OpenPoseFormatError(path, f"person {i}: {arr.size} values in 'pose_keypoints_2d', "
+                                            f"expected {3 * num_keypoints} ({num_keypoints} x (x, y, c))")
+        if not np.all(np.isfinite(arr)):
+            raise OpenPoseFormatError(path, f"person {i}: non-finite keypoint values")
+        out[i] = arr.reshape(num_keypoints, 3)
+    return out
+
+
+def match_folders(camera_names: Seq[str], folders: Seq[Path], source: Path) -> list[Path]:
+    """The keypoint folder of each camera, in camera order; raises when names don't match."""
+    by_key: dict[str, Path] = {}
+    for f in folders:
+        by_key.setdefault(_key(f.name), f)
+    missing = [n for n in camera_names if _key(n) not in by_key]
+    if missing:
+        raise OpenPoseFormatError(source, f"camera names {list(camera_names)} of the calibration do not "
+                                          f"match the keypoint folders {sorted(f.name for f in folders)} "
+                                          f"(no folder for {missing})")
+    return [by_key[_key(n)] for n in camera_names]
+
+
+def read_keypoint_folders(rig: Rig, keypoints: Path, layout: str) -> list[dict[int, np.ndarray]]:
+    """Per camera, {frame: (N, K, 3) people}."""
+    K = len(LAYOUTS[layout])
+    if not keypoints.is_dir():
+        raise FileNotFoundError(f"keypoint folder not found: {keypoints}")
+    folders = sorted(p for p in keypoints.iterdir() if p.is_dir())
+    if not folders:
+        raise OpenPoseFormatError(keypoints, "no per-camera keypoint folders inside")
+    out = []
+    for folder in match_folders(rig.names, folders, keypoints):
+        files = sorted(folder.glob("*.json"))
+        if not files:
+            raise OpenPoseFormatError(folder, "no .json files")
+        frames: dict[int, np.ndarray] = {}
+        for f in files:
+            n = frame_number(f)
+            if n in frames:
+                raise OpenPoseFormatError(f, f"frame {n} appears twice in {folder.name}")
+            frames[n] = read_people(f, K)
+        out.append(frames)
+    return out
+
+
+def _triangulation_error(rig: Rig, xy: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, float]:
+    """Triangulate keypoints (C, K, 2) valid (C, K); (points (K, 3), median reprojection px)."""
+    X = triangulate(rig, xy, valid=ok)
+    have = np.all(np.isfinite(X), axis=1)
+    if have.sum() < 3:
+        return X, np.inf
+    px = project(rig, np.where(have[:, None], X, 0.0))
+    err = np.linalg.norm(px - xy, axis=-1)
+    use = ok & have[None]
+    return X, float(np.median(err[use])) if use.any() else np.inf
+
+
+def capture_centre(rig: Rig) -> np.ndarray:
+    """(3,) the point nearest (least squares) to every camera's optical axis."""
+    d = rig.R[:, 2, :]                                                   # optical axes, world
+    proj = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
+    return np.linalg.solve(proj.sum(axis=0), (proj @ rig.centers[..., None]).sum(axis=0))[:, 0]
+
+
+def select_subject(rig: Rig, people: list[dict[int, np.ndarray]], frames: Seq[int],
+                   min_confidence: float, max_error_px: float = 50.0) -> dict[int, list[int | None]]:
+    """Per frame, the index of the subject in each view (None: not seen there).
+
+    First frame: every assignment of one person (or none) per view is triangulated; among
+    those with a median reprojection error below ``max_error_px`` the subject is the one
+    seen in the most views, then the one nearest the centre of the capture volume
+    (:func:`capture_centre`). Later frames: per view, the person nearest (median keypoint
+    distance) to the reprojection of the subject's last 3D keypoints, if within
+    3 x ``max_error_px``.
+    """
+    C = len(rig)
+    centre = capture_centre(rig)
+    choice: dict[int, list[int | None]] = {}
+    last: np.ndarray | None = None
+    for f in frames:
+        per_view = [people[c].get(f, np.zeros((0, 1, 3))) for c in range(C)]
+        if last is None or not np.isfinite(last).any():
+            best, best_key, best_X = None, None, None
+            options = [list(range(len(p))) + [None] for p in per_view]
+            for combo in itertools.product(*options):
+                views = sum(i is not None for i in combo)
+                if views < 2:
+                    continue
+                xy, ok = _stack(per_view, combo, min_confidence)
+                X, err = _triangulation_error(rig, xy, ok)
+                if err >= max_error_px:
+                    continue
+                key = (views, -float(np.linalg.norm(np.nanmedian(X, axis=0) - centre)))
+                if best_key is None or key > best_key:
+                    best, best_key, best_X = list(combo), key, X
+            choice[f] = best if best is not None else [None] * C
+            last = best_X
+            continue
+        have = np.all(np.isfinite(last), axis=1)
+        px = project(rig, np.where(have[:, None], last, 0.0))          # (C, K, 2)
+        pick: list[int | None] = []
+        for c in range(C):
+            d = []
+            for p in per_view[c]:
+                use = (p[:, 2] > min_confidence) & have
+                d.append(np.median(np.linalg.norm(p[use, :2] - px[c, use], axis=1)) if use.any() else np.inf)
+            i = int(np.argmin(d)) if d else None
+            pick.append(i if i is not None and d[i] < 3 * max_error_px else None)
+        choice[f] = pick
+        if sum(i is not None for i in pick) >= 2:
+            X, _ = _triangulation_error(rig, *_stack(per_view, pick, min_confidence))
+            last = np.where(np.isfinite(X), X, last)
+    return choice
+
+
+def _stack(per_view: list[np.ndarray], combo: Seq[int | None],
+           min_confidence: float) -> tuple[np.ndarray, np.ndarray]:
+    """Keypoints (C, K, 2) and validity (C, K) of one person per view (None: no one)."""
+    C, K = len(per_view), max(p.shape[1] for p in per_view)
+    xy = np.zeros((C, K, 2))
+    ok = np.zeros((C, K), bool)
+    for c, i in enumerate(combo):
+        if i is not None:
+            p = per_view[c][i]
+            ok[c], xy[c] = p[:, 2] > min_confidence, p[:, :2]
+    return xy, ok
+
+
+def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None = None,
+                           keypoints: str | Path | None = None, layout: str = "BODY_25B",
+                           fps: float = 30.0, person: str = "subject", min_confidence: float = 0.0,
+                           frames: int | None = None, name: str | None = None) -> Sequence:
+    """A :class:`Sequence` with a rig and labelled keypoint detections (no ground truth).
+
+    path: the project folder; calibration: file relative to it (default: the single
+    ``*.toml`` in it or in ``calibration/``); keypoints: folder of per-camera folders
+    (default ``pose``); layout: a key of :data:`LAYOUTS`; person: "subject" or "all";
+    frames: keep the first N frames. Raises :class:`OpenPoseFormatError` (a ValueError) for
+    malformed files or camera names that don't match the folders.
+    """
+    root = Path(path)
+    if not root.is_dir():
+        raise FileNotFoundError(f"recording folder not found: {root}")
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown keypoint layout {layout!r} (known: {', '.join(LAYOUTS)})")
+    if person not in ("subject", "all"):
+        raise ValueError(f"person must be 'subject' or 'all', got {person!r}")
+    calib = root / calibration if calibration is not None else _find_calibration(root)
+    rig = load_calibration(calib)
+    people = read_keypoint_folders(rig, root / (keypoints or "pose"), layout)
+    all_frames = sorted(set().union(*(p.keys() for p in people)))
+    first = all_frames[0]
+    all_frames = all_frames[:frames] if frames is not None else all_frames
+    names = LAYOUTS[layout]
+    labels = tuple(n for n in names if n is not None)
+    label_of = np.array([labels.index(n) if n is not None else -1 for n in names])
+    subject = select_subject(rig, people, all_frames, min_confidence) if person == "subject" else None
+    rows = []
+    for f in all_frames:
+        for c in range(len(rig)):
+            ppl = people[c].get(f)
+            if ppl is None or not len(ppl):
+                continue
+            idx = range(len(ppl)) if subject is None else [i for i in [subject[f][c]] if i is not None]
+            for i in idx:
+                kp = ppl[i]
+                keep = (kp[:, 2] > 0) & (kp[:, 2] >= min_confidence) & (label_of >= 0)
+                for k in np.flatnonzero(keep):
+                    rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2]))
+    arr = np.array(rows, np.float64).reshape(-1, 6)
+    det = Detections(labels=labels, frame=arr[:, 0].astype(np.int64), view=arr[:, 1].astype(np.int64),
+                     label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5])
+    meta = {"source": str(root), "calibration": str(calib), "layout": layout, "person": person,
+            "first_frame": int(first), "frames": len(all_frames)}
+    return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, meta=meta)
+
+
+def _find_calibration(root: Path) -> Path:
+    for folder in (root, root / "calibration"):
+        found = sorted(folder.glob("*.toml")) if folder.is_dir() else []
+        if len(found) == 1:
+            return found[0]
+        if len(found) > 1:
+            raise OpenPoseFormatError(folder, f"several calibration files {[f.name for f in found]}: "
+                                              "pass calibration=")
+    raise FileNotFoundError(f"no calibration (*.toml) in {root} or {root / 'calibration'}")
+
+
+def openpose_sequence(*, body=None, path: str, **options) -> Sequence:
+    """Hydra entry point (``conf/data/pose2sim_demo.yaml``); ``body`` is accepted and unused."""
+    return load_openpose_sequence(path, **options)

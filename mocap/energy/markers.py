@@ -1,0 +1,308 @@
+"""The marker likelihood of Canton-Ferrer et al. 2010 (Sec. 3.3-3.4), batched over particles.
+
+Per frame, the 2D detections are arranged per landmark and view (:func:`arrange_detections`:
+a labelled detection is a candidate for its landmark, an unlabelled one for every landmark;
+several candidates per landmark and view are allowed: false positives, other people).
+For a batch of particles with landmarks X: (P, L, 3):
+
+1. Every landmark is projected into every view: u: (P, L, C, 2) undistorted pixels.
+2. Outlier thresholding (Sec. 3.3): in each view the candidate nearest to u within the gate
+   tau (pixels) is kept, z: (P, L, C, 2); farther ones are dismissed.
+3. Each kept measurement z_a is scored by the generalised symmetric epipolar distance
+   (:mod:`mocap.energy.epipolar`) of the point set {z_a} + {u_b, b = 1..C}, i.e. the
+   measurement against the hypothesis's own projections, which are exact correspondences:
+   the pairs (z_a, u_b), b != a, contribute d_sym(z_a, u_b)^2 / 2 (the mean of
+   d(u_b, F_ab z_a)^2 and d(z_a, F_ab^T u_b)^2), and the same-view pair (z_a, u_a), where two
+   points correspond only if they coincide, contributes |z_a - u_a|^2::
+
+       c_a = 1/2 |z_a - u_a|^2 + 1/2 mean_{b != a} d_sym(z_a, u_b)^2 / 2       (pixels^2)
+
+   It is zero only if the landmark lies on the ray of z_a; with measurements in several views
+   only at their common point. The cost of a view is min(c_a, tau^2); a view without a kept
+   measurement (missed, occluded, or gated out) costs tau^2, so outliers cost no more than a
+   miss (a truncated quadratic).
+4. Occlusion management (Sec. 3.4): landmarks with candidates in fewer than ``min_views``
+   views around their predicted position are "weak". Their neighbours constrain them
+   through the kinematic chain; temporal coherence adds one virtual view per weak landmark,
+   tau^2 min(1, |X_l - X^_l|^2 / r^2), pulling it towards its predicted position X^_l.
+
+The energy of a particle is the mean of these costs over landmarks x views (pixels^2),
+plus the coherence terms over the same count.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.body.kinematics import chain_transforms
+from mocap.body.landmarks import LandmarkSet
+from mocap.body.model import ShapedBody
+from mocap.cameras import Rig, fundamental_matrices, undistort_points
+from mocap.data.sequence import Detections
+
+
+@dataclass(frozen=True)
+class MarkerObservation:
+    """One frame's detections per landmark and view, padded to K candidates.
+
+    xy: (L, C, K, 2) undistorted pixels; valid: (L, C, K) bool; confidence: (L, C, K).
+    """
+
+    xy: np.ndarray
+    valid: np.ndarray
+    confidence: np.ndarray
+
+    @property
+    def num_candidates(self) -> int:
+        return self.xy.shape[2]
+
+    def views_with_candidates(self) -> np.ndarray:
+        """(L,) number of views holding at least one candidate."""
+        return self.valid.any(axis=2).sum(axis=1)
+
+
+def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
+                       min_confidence: float = 0.0) -> MarkerObservation:
+    """Arrange one frame's detections (all rows of ``det`` are used) for the likelihood.
+
+    A labelled detection goes to the landmark of the same name (labels the tracker does not
+    fit are dropped); an unlabelled one (label -1) to every landmark. Detections below
+    ``min_confidence`` are dropped. Distortion is removed with the rig's model.
+    """
+    names = list(landmark_names)
+    L, C = len(names), len(rig)
+    index = {n: i for i, n in enumerate(names)}
+    to_landmark = np.array([index.get(n, -2) for n in det.labels] + [-1], dtype=np.int64)
+    keep = det.confidence >= min_confidence
+    lab = to_landmark[np.where(det.label >= 0, det.label, len(det.labels))][keep]
+    view, xy, conf = det.view[keep], np.asarray(det.xy, np.float64)[keep], det.confidence[keep]
+    if np.any((view < 0) | (view >= C)):
+        raise ValueError(f"detections: view index out of range for a rig of {C} views")
+    labelled = lab >= 0
+    unl = np.flatnonzero(lab == -1)
+    rows_l = np.concatenate([lab[labelled], np.repeat(np.arange(L), len(unl))])
+    rows = np.concatenate([np.flatnonzero(labelled), np.tile(unl, L)])
+    if len(rows):
+        undist = np.empty_like(xy)
+        for c in range(C):          # C small: undistort per view
+            sel = view == c
+            if sel.any():
+                undist[sel] = undistort_points(rig[c], xy[sel])
+    else:
+        undist = xy
+    key = rows_l * C + view[rows]
+    order = np.argsort(key, kind="stable")
+    key, rows, rows_l = key[order], rows[order], rows_l[order]
+    counts = np.bincount(key, minlength=L * C)
+    K = max(1, int(counts.max()) if len(counts) else 1)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    rank = np.arange(len(key)) - start[key]
+    out_xy = np.zeros((L, C, K, 2))
+    valid = np.zeros((L, C, K), bool)
+    out_conf = np.zeros((L, C, K))
+    li, ci = rows_l, view[rows]
+    out_xy[li, ci, rank] = undist[rows]
+    valid[li, ci, rank] = True
+    out_conf[li, ci, rank] = conf[rows]
+    return MarkerObservation(out_xy, valid, out_conf)
+
+
+def pinhole_project(rig: Rig, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undistorted projection of points (..., L, 3) world metres into all views:
+    pixels (..., L, C, 2) and depth (..., L, C) metres."""
+    points = np.asarray(points)
+    dtype = np.result_type(points.dtype, np.float32)
+    R, t, K = rig.R.astype(dtype), rig.t.astype(dtype), rig.K.astype(dtype)
+    X = np.einsum("cij,...lj->...lci", R, points) + t
+    z = X[..., 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x, y = X[..., 0] / z, X[..., 1] / z
+    u = K[:, 0, 0] * x + K[:, 0, 1] * y + K[:, 0, 2]
+    v = K[:, 1, 1] * y + K[:, 1, 2]
+    return np.stack([u, v], axis=-1), z
+
+
+@dataclass(frozen=True)
+class MarkerLikelihood:
+    """gate_px: tau, the outlier threshold (pixels); min_views: landmarks with candidates in
+    fewer views get temporal coherence; coherence_radius: r (metres); coherence_weight:
+    multiplies the coherence term (0 disables it); near: minimum depth (m) of a usable view."""
+
+    gate_px: float = 30.0
+    min_views: int = 3
+    coherence_radius: float = 0.15
+    coherence_weight: float = 1.0
+    near: float = 0.05
+
+    def __post_init__(self) -> None:
+        if not self.gate_px > 0 or not self.coherence_radius > 0:
+            raise ValueError("gate_px and coherence_radius must be positive")
+
+
+@dataclass(frozen=True)
+class EpipolarTables:
+    """Particle-independent parts of the symmetric epipolar distance for one frame.
+
+    lines: (L * C * K, C, 3) the epipolar line F_ab z~_a in every view b of every candidate
+    z_a (row (l * C + a) * K + k), scaled to a unit normal so that a point's distance to it
+    is one dot product; zero rows for b == a and for empty candidate slots.
+    epipoles: (C, C, 3) homogeneous epipole of camera b in view a (the image of b's centre),
+    unit norm.
+    """
+
+    lines: np.ndarray
+    epipoles: np.ndarray
+
+    @staticmethod
+    def build(obs: MarkerObservation, rig: Rig, F: np.ndarray) -> EpipolarTables:
+        L, C, K, _ = obs.xy.shape
+        zh = np.concatenate([obs.xy, np.ones_like(obs.xy[..., :1])], axis=-1)     # (L, C, K, 3)
+        lines = np.einsum("abij,lakj->lakbi", F, zh)                              # (L, C, K, C, 3)
+        norm = np.hypot(lines[..., 0], lines[..., 1])
+        ok = (norm > 0) & obs.valid[..., None]
+        lines = np.where(ok[..., None], lines / np.where(ok, norm, 1.0)[..., None], 0.0)
+        centers = np.concatenate([rig.centers, np.ones((C, 1))], axis=1)            # (C, 4)
+        epipoles = np.einsum("aij,bj->abi", rig.P, centers)
+        epipoles[np.arange(C), np.arange(C)] = 0.0            # a camera has no epipole of itself
+        norm = np.linalg.norm(epipoles, axis=-1, keepdims=True)
+        epipoles = epipoles / np.where(norm > 0, norm, 1.0)
+        return EpipolarTables(lines.reshape(L * C * K, C, 3), epipoles)
+
+    def astype(self, dtype) -> EpipolarTables:
+        return EpipolarTables(self.lines.astype(dtype), self.epipoles.astype(dtype))
+
+
+def view_costs(u: np.ndarray, front: np.ndarray, obs: MarkerObservation, tables: EpipolarTables,
+               gate_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per-view costs of the module docstring.
+
+    u: (P, L, C, 2) projections; front: (P, L, C) bool, in front of the camera.
+    Returns cost: (P, L, C) pixels^2 in [0, tau^2], and kept: (P, L, C) bool (a measurement
+    passed the gate).
+
+    The two halves of d_sym(z_a, u_b)^2 are computed as: d(u_b, F_ab z~_a), a dot product
+    with the precomputed line of the candidate; d(z_a, F_ab^T u~_b), the distance of z_a from
+    the line through u_a and the epipole e_ab (u_a and u_b are projections of one 3D point,
+    so the epipolar line of u_b in view a passes through u_a).
+    """
+    tau2 = float(gate_px) ** 2
+    P, L, C, _ = u.shape
+    K = obs.num_candidates
+    ux, uy = u[..., 0], u[..., 1]                                     # (P, L, C)
+    dx = obs.xy[None, ..., 0] - ux[..., None]                          # (P, L, C, K): z - u
+    dy = obs.xy[None, ..., 1] - uy[..., None]
+    d2 = dx * dx
+    d2 += dy * dy
+    d2 += np.where(obs.valid, 0.0, np.inf).astype(d2.dtype)           # (L, C, K): empty slots never win
+    if K == 1:
+        k = np.zeros((P, L, C), np.int64)
+        r2, dx, dy = d2[..., 0], dx[..., 0], dy[..., 0]
+    else:
+        k = np.argmin(d2, axis=3)
+        flat = np.arange(P * L * C).reshape(P, L, C) * K + k
+        r2, dx, dy = d2.reshape(-1)[flat], dx.reshape(-1)[flat], dy.reshape(-1)[flat]
+    kept = (r2 < tau2) & front
+    rows = (np.arange(L)[:, None] * C + np.arange(C)) * K + k                 # (P, L, C)
+    line = tables.lines[rows]                                         # (P, L, a, b, 3)
+    ub_x, ub_y = ux[..., None, :], uy[..., None, :]
+    d_b = line[..., 0] * ub_x + line[..., 1] * ub_y + line[..., 2]     # (P, L, a, b); 0 for a == b
+    e = tables.epipoles                                               # (a, b, 3); 0 for a == b
+    wx = e[..., 2] * ux[..., :, None] - e[..., 0]                      # direction u_a - e_ab
+    wy = e[..., 2] * uy[..., :, None] - e[..., 1]
+    cross = dx[..., None] * wy - dy[..., None] * wx
+    sym = d_b * d_b + cross * cross / (wx * wx + wy * wy + 1e-12)       # 0 for a == b
+    if front.all():                                                   # the usual case
+        epi, n = sym.sum(axis=-1), C - 1
+    else:
+        frontf = front.astype(u.dtype)
+        epi = (sym * frontf[..., None, :]).sum(axis=-1)               # sum over b != a in front
+        n = np.maximum(frontf.sum(axis=-1, keepdims=True) - frontf, 1)    # views b != a in front
+    c = 0.5 * r2 + 0.25 * epi / n                                     # 1/2 r^2 + 1/2 mean d_sym^2 / 2
+    cost = np.where(kept & np.isfinite(c), np.minimum(c, tau2), tau2)
+    return cost, kept
+
+
+class MarkerEnergy:
+    """E(chi): (P, D) -> (P,) pixels^2, for one frame (see the module docstring).
+
+    landmarks/shaped: the fitted landmark set and body; rig: the cameras, projected without
+    distortion (obs holds undistorted pixels); obs: this frame's arranged detections;
+    F: (C, C, 3, 3) the rig's fundamental matrices (computed when None); predicted: (L, 3)
+    predicted landmark positions (for coherence); weak: (L,) bool landmarks that get the
+    coherence term. Costs are computed in the body's dtype (float32 for the shipped configs).
+    """
+
+    def __init__(self, landmarks: LandmarkSet, shaped: ShapedBody, rig: Rig, obs: MarkerObservation,
+                 settings: MarkerLikelihood, F: np.ndarray | None = None,
+                 predicted: np.ndarray | None = None, weak: np.ndarray | None = None):
+        self.landmarks, self.shaped, self.rig, self.obs, self.settings = landmarks, shaped, rig, obs, settings
+        self.F = fundamental_matrices(rig) if F is None else F
+        dtype = landmarks.model.dtype                       # float32 bodies: float32 costs
+        self.tables = EpipolarTables.build(obs, rig, self.F).astype(dtype)
+        self.obs_cast = MarkerObservation(obs.xy.astype(dtype), obs.valid, obs.confidence)
+        self.rest = landmarks.rest_points(shaped)
+        L = len(landmarks)
+        self.predicted = predicted
+        self.weak = np.zeros(L, bool) if weak is None or predicted is None else np.asarray(weak, bool)
+
+    def points(self, chi: np.ndarray) -> np.ndarray:
+        """Landmarks (P, L, 3) of poses (P, D), in the body's dtype (forward kinematics as
+        :meth:`LandmarkSet.positions`, with the rest points computed once)."""
+        m = self.landmarks.model
+        chi = np.atleast_2d(np.asarray(chi, dtype=m.dtype))
+        G = chain_transforms(m.parents, m.dof_joint, self.shaped.axes, self.shaped.rest_joints,
+                             chi[:, :6], chi[:, 6:])
+        return self.landmarks.from_transforms(G, self.rest)
+
+    def costs_of_points(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per-landmark costs of landmarks X: (P, L, 3): (markers (P, L), coherence (P, L)),
+        each divided by L x C so that their sum over landmarks is the energy (pixels^2)."""
+        s = self.settings
+        u, depth = pinhole_project(self.rig, X)
+        cost, _ = view_costs(u, depth > s.near, self.obs_cast, self.tables, s.gate_px)
+        P, L, C = cost.shape
+        markers = cost.sum(axis=2) / (L * C)
+        coh = np.zeros((P, L), cost.dtype)
+        if s.coherence_weight and self.weak.any():
+            d2 = ((X[:, self.weak] - self.predicted[self.weak]) ** 2).sum(axis=-1)
+            coh[:, self.weak] = (s.coherence_weight * s.gate_px**2 / (L * C)
+                                 * np.minimum(d2 / s.coherence_radius**2, 1.0))
+        return markers, coh
+
+    def terms_of_points(self, X: np.ndarray) -> dict[str, np.ndarray]:
+        """{"markers": (P,), "coherence": (P,)} pixels^2 for landmarks X: (P, L, 3)."""
+        markers, coh = self.costs_of_points(X)
+        return {"markers": markers.sum(axis=1), "coherence": coh.sum(axis=1)}
+
+    def terms(self, chi: np.ndarray) -> dict[str, np.ndarray]:
+        return self.terms_of_points(self.points(np.atleast_2d(chi)))
+
+    def landmark_costs(self, chi: np.ndarray) -> np.ndarray:
+        """(P, D) -> (P, L) per-landmark energy (the crossover of the annealing uses it)."""
+        markers, coh = self.costs_of_points(self.points(np.atleast_2d(chi)))
+        return markers + coh
+
+    def __call__(self, chi: np.ndarray) -> np.ndarray:
+        """(P, D) -> (P,) energy, pixels^2."""
+        return self.landmark_costs(chi).sum(axis=1)
+
+
+def views_near(obs: MarkerObservation, rig: Rig, points: np.ndarray, gate_px: float) -> np.ndarray:
+    """(L,) number of views with a candidate within ``gate_px`` of the projection of each
+    landmark (points: (L, 3), e.g. the predicted landmarks)."""
+    u, depth = pinhole_project(rig, points[None])
+    d2 = ((obs.xy - u[0][:, :, None, :]) ** 2).sum(axis=-1)
+    near = (obs.valid & (d2 < gate_px**2)).any(axis=2) & (depth[0] > 0)
+    return near.sum(axis=1)
+
+
+def reprojection_errors(points: np.ndarray, obs: MarkerObservation, rig: Rig, gate_px: float) -> np.ndarray:
+    """(L, C) pixel distance from each landmark's projection (points: (L, 3)) to its nearest
+    candidate within the gate; NaN where none."""
+    u, depth = pinhole_project(rig, points[None])
+    d = np.sqrt(((obs.xy - u[0][:, :, None, :]) ** 2).sum(axis=-1))
+    d = np.where(obs.valid, d, np.inf).min(axis=2)
+    return np.where((d < gate_px) & (depth[0] > 0), d, np.nan)

@@ -1,0 +1,210 @@
+"""``marker_apf``: the marker-based tracker of Canton-Ferrer, Casas & Pardàs 2010.
+
+An annealed particle filter over the body's pose, fed by 2D marker (or keypoint)
+detections in calibrated views: the likelihood of :mod:`mocap.energy.markers` (outlier
+gating, generalised symmetric epipolar distance, occlusion management with temporal
+coherence), survival-rate annealing, propagation by a Gaussian truncated to the joint
+limits (:mod:`mocap.trackers.marker_propagation`), and initialisation from triangulated
+detections with the body's size fitted to the subject (:mod:`mocap.trackers.marker_init`).
+
+The landmark set is configurable: ``"auto"`` fits every detection label the catalogue
+knows (:mod:`mocap.trackers.marker_landmarks`), so the same tracker runs on synthetic
+markers and on OpenPose keypoints.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.body.landmarks import LandmarkSet
+from mocap.body.model import BodyModel, ShapedBody
+from mocap.body.root_motion import predict_root
+from mocap.cameras import Rig, fundamental_matrices
+from mocap.energy.markers import (
+    MarkerEnergy,
+    MarkerLikelihood,
+    MarkerObservation,
+    arrange_detections,
+    reprojection_errors,
+    views_near,
+)
+from mocap.trackers.apf import APFSettings
+from mocap.trackers.apf_tracker import diffusion_std
+from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.marker_anneal import PartGroup, part_groups, run_annealing
+from mocap.trackers.marker_init import (
+    fit_shape,
+    neutral_pose,
+    pinhole_rig,
+    root_rigid,
+    triangulate_candidates,
+)
+from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+
+
+@dataclass(frozen=True)
+class MarkerInit:
+    """Self-initialisation: passes of annealed inverse kinematics to the triangulated
+    landmarks (particles x layers each, first-pass diffusion ``std`` = (translation m,
+    rotation rad, joints rad) shrinking by ``shrink`` per pass); ``length_sigma``: the
+    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape."""
+
+    passes: int = 3
+    particles: int = 300
+    layers: int = 10
+    std: Sequence[float] = (0.1, 0.3, 0.6)
+    shrink: float = 0.4
+    length_sigma: float = 0.02
+    fit_shape: bool = True
+
+
+class MarkerAPFTracker:
+    """Tracks one subject from 2D detections (see the module docstring)."""
+
+    def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, likelihood: MarkerLikelihood,
+                 rng: np.random.Generator, landmarks: str | Sequence = "auto",
+                 init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
+                 min_confidence: float = 0.0, init: MarkerInit = MarkerInit(), crossover: bool = True,
+                 keep_particles: bool = False, name: str = "marker_apf"):
+        self.body, self.rig, self.settings, self.likelihood = body, rig, settings, likelihood
+        self.rng, self.name, self.keep_particles = rng, name, keep_particles
+        self.landmark_spec = landmarks
+        self.std0 = diffusion_std(body, *init_std)
+        self.damping = prediction_damping
+        self.min_confidence = min_confidence
+        self.init = init
+        self.crossover = crossover
+        self.groups: list[PartGroup] = []
+        self.pinhole = pinhole_rig(rig)
+        self.F = fundamental_matrices(self.pinhole)
+        self.landmarks: LandmarkSet | None = None
+        self.shaped: ShapedBody | None = None
+        self.history: list[np.ndarray] = []
+
+    # -- set-up ------------------------------------------------------------------------
+    def _landmarks_for(self, frame: Frame) -> LandmarkSet:
+        if frame.detections is None:
+            raise ValueError(f"{self.name}: frame {frame.index} has no detections; the marker "
+                             "tracker needs 2D detections (data with detections enabled, e.g. "
+                             "data=walk_markers_small, or a keypoint recording such as data=pose2sim_demo)")
+        if self.landmarks is None:
+            self.landmarks = make_landmark_set(self.body, self.landmark_spec, frame.detections.labels)
+            if self.crossover:
+                self.groups = part_groups(dof_moves(self.body, self.landmarks))
+        return self.landmarks
+
+    def observe(self, frame: Frame) -> MarkerObservation:
+        lms = self._landmarks_for(frame)
+        return arrange_detections(frame.detections, lms.names, self.rig, self.min_confidence)
+
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
+        chi = np.asarray(chi, np.float64)
+        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
+            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        self.shaped = self.body.shaped(alpha)
+        self.history = [chi]
+
+    def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        """(chi (D,), alpha (K,)) from one frame of labelled detections (Sec. 3.1)."""
+        obs = self.observe(frame)
+        lms = self.landmarks
+        gate = self.likelihood.gate_px
+        measured, views = triangulate_candidates(self.pinhole, obs, gate)
+        if np.isfinite(measured[:, 0]).sum() < 3:
+            raise ValueError(f"{self.name}: frame {frame.index}: fewer than 3 landmarks could be "
+                             "triangulated (the initialisation needs labelled detections in >= 2 views)")
+        rest0, basis = rest_point_basis(self.body, lms)
+        alpha = np.zeros(self.body.num_shape)
+        if self.init.fit_shape:
+            pairs = rigid_pairs(self.body, lms)
+            lengths = np.linalg.norm(measured[pairs[:, 0]] - measured[pairs[:, 1]], axis=1)
+            alpha = fit_shape(rest0, basis, pairs, lengths, self.init.length_sigma)
+        shaped = self.body.shaped(alpha)
+        rest = lms.rest_points(shaped).astype(np.float64)
+        chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
+        chi = self._fit_to_points(shaped, chi, measured)
+        return chi, alpha
+
+    def _fit_to_points(self, shaped: ShapedBody, chi: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Annealed inverse kinematics: landmarks of chi towards target (L, 3), NaN ignored;
+        a robust (truncated at 0.3 m) squared distance per landmark, with crossover."""
+        have = np.all(np.isfinite(target), axis=1)
+        tgt = np.where(have[:, None], target, 0.0)
+        lms = self.landmarks
+
+        def costs(x):
+            d2 = ((lms.positions(shaped, x).astype(np.float64) - tgt) ** 2).sum(-1)
+            return np.where(have, np.minimum(d2, 0.09), 0.0)
+
+        s = self.init
+        settings = APFSettings(particles=s.particles, layers=s.layers, survival=self.settings.survival,
+                               diffusion=self.settings.diffusion, shrink=self.settings.shrink,
+                               min_std_fraction=self.settings.min_std_fraction)
+        for k in range(s.passes):
+            std = diffusion_std(self.body, *s.std) * s.shrink**k
+            chi, _ = run_annealing(costs, chi, std, self.body.limits, settings, self.rng,
+                                   root_point=shaped.rest_joints[0], groups=self.groups)
+        return chi
+
+    # -- tracking ----------------------------------------------------------------------
+    def predict(self) -> np.ndarray:
+        """Constant velocity: angles chi_t + d (chi_t - chi_{t-1}), the root on SE(3)."""
+        if len(self.history) < 2:
+            return np.array(self.history[-1], np.float64)
+        a, b = self.history[-2], self.history[-1]
+        out = b + self.damping * (b - a)
+        out[:6] = predict_root(a[:6], b[:6], self.damping)
+        return np.clip(out, self.body.limits[:, 0], self.body.limits[:, 1])
+
+    def frame_energy(self, frame: Frame, predicted: np.ndarray) -> tuple[MarkerEnergy, np.ndarray]:
+        obs = self.observe(frame)
+        lms = self.landmarks
+        pred_pts = lms.positions(self.shaped, predicted[None])[0].astype(np.float64)
+        n_views = views_near(obs, self.pinhole, pred_pts, self.likelihood.gate_px)
+        weak = n_views < self.likelihood.min_views
+        energy = MarkerEnergy(lms, self.shaped, self.pinhole, obs, self.likelihood, F=self.F,
+                              predicted=pred_pts, weak=weak)
+        return energy, n_views
+
+    def step(self, frame: Frame) -> Estimate:
+        if self.shaped is None:
+            raise RuntimeError("initialize() the tracker before step()")
+        t0 = time.perf_counter()
+        predicted = self.predict()
+        energy, n_views = self.frame_energy(frame, predicted)
+        t1 = time.perf_counter()
+        chi, diag = run_annealing(energy.landmark_costs, predicted, self.std0, self.body.limits,
+                                  self.settings, self.rng, keep_particles=self.keep_particles,
+                                  previous=self.history[-1], root_point=self.shaped.rest_joints[0],
+                                  groups=self.groups)
+        t2 = time.perf_counter()
+        points = energy.points(chi[None]).astype(np.float64)
+        terms = {k: float(v[0]) for k, v in energy.terms_of_points(points).items()}
+        reproj = reprojection_errors(points[0], energy.obs, self.pinhole, self.likelihood.gate_px)
+        self.history = [*self.history[-2:], chi]
+        names = self.landmarks.names
+        weak = [n for n, w in zip(names, energy.weak, strict=True) if w]
+        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics={
+            "energy_terms": terms, "energy": float(sum(terms.values())),
+            "layers": {"energy_min": diag.energy_min, "energy_mean": diag.energy_mean,
+                       "beta": diag.beta, "survival": diag.survival, "ess": diag.ess,
+                       "spread": diag.spread},
+            "particles": diag.particles if self.keep_particles else None,
+            "energy_evaluations": diag.evaluations,
+            "landmarks": points[0], "landmark_names": list(names),
+            "views_per_landmark": {n: int(v) for n, v in zip(names, n_views, strict=True)},
+            "weak_landmarks": weak,
+            "reprojection_px": float(np.nanmedian(reproj)) if np.isfinite(reproj).any() else float("nan"),
+            "timings": {"observation": t1 - t0, "search": t2 - t1},
+        })
+
+
+def make_init(settings: Mapping | None) -> MarkerInit:
+    s = dict(settings or {})
+    if "std" in s:
+        s["std"] = tuple(float(v) for v in s["std"])
+    return MarkerInit(**s)

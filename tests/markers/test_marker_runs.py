@@ -1,0 +1,32 @@
+"""experiments/track.py with the marker tracker on the real Pose2Sim recording, which has no
+ground truth: the run reports the keypoint metrics of mocap/eval/keypoint_metrics.py.
+(Synthetic marker runs are covered by tests/experiments/test_track.py.)"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+DEMO = REPO.parent / "shared" / "data" / "pose2sim-demo"
+
+
+def run_track(tmp_path: Path, *overrides: str) -> dict:
+    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={tmp_path}",
+                        "tracker=marker_apf", "recording.enabled=false", *overrides],
+                       capture_output=True, text=True, cwd=REPO, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return json.loads((tmp_path / "metrics.json").read_text())
+
+
+@pytest.mark.skipif(not (DEMO / "Calib.toml").is_file(), reason="Pose2Sim demo data not present")
+def test_marker_run_on_the_pose2sim_demo_reports_keypoint_metrics(tmp_path):
+    m = run_track(tmp_path, "data=pose2sim_demo", "init.mode=tracker", "frames=4")
+    assert "mpjpe_mm" not in m and m["frames"] == 4
+    per_view = m["reprojection_median_px_per_view"]
+    assert set(per_view) == {"cam_01", "cam_02", "cam_03", "cam_04"}
+    assert all(0 < v < 60 for v in per_view.values())
+    assert m["bone_length_std_mm"] < 1.0                    # a body model: bones of constant length
+    assert m["triangulation"]["reprojection_median_px"] < m["reprojection_median_px"] + 20

@@ -1,0 +1,98 @@
+"""The marker tracker end to end on synthetic detections (conf/tracker/marker_apf.yaml)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from mocap.cameras import rig_from_config
+from mocap.data.generate import make_synthetic
+from mocap.data.sequence import Detections, Sequence
+from mocap.eval.metrics import joint_errors
+from mocap.trackers.base import Frame
+from mocap.trackers.factory import make_marker_tracker
+from mocap.trackers.run import frame_of, track_sequence
+
+REPO = Path(__file__).resolve().parents[2]
+FRAMES = 12
+
+
+def tracker(body, rig, seed=0, **overrides):
+    cfg = yaml.safe_load((REPO / "conf" / "tracker" / "marker_apf.yaml").read_text())
+    cfg.pop("_target_")
+    cfg.update(overrides)
+    return make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(seed), **cfg)
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return rig_from_config("humaneva")
+
+
+def walk(body, rig, **detections) -> Sequence:
+    det = {"enabled": True, "detection_rate": 1.0, "false_positive_rate": 0.0, "noise_px": 0.0,
+           "occlusion": False, **detections}
+    return make_synthetic(body, rig, motion="walk", frames=FRAMES, fps=25, seed=3, masks=False,
+                          detections=det)
+
+
+def tracking_error(body, seq, trk) -> tuple[float, list]:
+    res = track_sequence(trk, seq, seq.gt.chi[0], seq.gt.alpha)
+    chis = np.stack([e.chi for e in res.estimates])
+    err = joint_errors(body.shaped(seq.gt.alpha).joints(chis), seq.gt.joints, body.joint_names)
+    return float(err[1:].mean()), res.estimates
+
+
+@pytest.fixture(scope="module")
+def clean(body, rig):
+    return walk(body, rig)
+
+
+@pytest.fixture(scope="module")
+def clean_error(body, rig, clean):
+    return tracking_error(body, clean, tracker(body, rig))[0]
+
+
+def test_clean_detections_are_tracked_within_20_mm(clean_error):
+    assert clean_error < 20.0
+
+
+def test_ten_percent_false_positives_change_the_error_little(body, rig, clean_error):
+    noisy = walk(body, rig, false_positive_rate=0.1)
+    assert len(noisy.detections) > 1.05 * FRAMES * 4 * 21
+    err, _ = tracking_error(body, noisy, tracker(body, rig))
+    assert err < clean_error + 8.0
+
+
+def test_a_marker_left_in_two_views_is_reported_and_still_tracked(body, rig, clean):
+    det = clean.detections
+    lab = det.labels.index("l_elbow")
+    drop = (det.label == lab) & (det.view >= 2)
+    keep = ~drop
+    seq = Sequence(clean.name, clean.rig, clean.fps,
+                   detections=Detections(det.labels, det.frame[keep], det.view[keep], det.label[keep],
+                                         det.xy[keep], det.confidence[keep]), gt=clean.gt)
+    err, estimates = tracking_error(body, seq, tracker(body, rig))
+    d = estimates[-1].diagnostics
+    assert d["views_per_landmark"]["l_elbow"] == 2 and d["weak_landmarks"] == ["l_elbow"]
+    assert d["energy_terms"]["coherence"] >= 0.0
+    assert err < 25.0
+    assert d["landmarks"].shape == (21, 3) and d["energy_evaluations"] == 100 * 6
+
+
+def test_the_tracker_initialises_itself_from_labelled_detections(body, rig, clean):
+    trk = tracker(body, rig)
+    chi, alpha = trk.initial_estimate(frame_of(clean, 0))
+    err = joint_errors(body.shaped(alpha).joints(chi), clean.gt.joints[:1], body.joint_names).mean()
+    assert err < 30.0
+    rest_est, rest_gt = body.rest(alpha)[1], body.rest(clean.gt.alpha)[1]
+    height = lambda j: j[:, 2].max() - j[:, 2].min()                    # noqa: E731
+    assert abs(height(rest_est) - height(rest_gt)) < 0.03
+
+
+def test_frames_without_detections_fail_with_a_clear_message(body, rig, clean):
+    trk = tracker(body, rig)
+    trk.initialize(clean.gt.chi[0], clean.gt.alpha)
+    with pytest.raises(ValueError, match="needs 2D detections"):
+        trk.step(Frame(index=1, masks=np.zeros((4, 480, 640), bool)))

@@ -1,0 +1,89 @@
+"""Real-data loader for calibration + OpenPose JSON folders (mocap/data/openpose.py)."""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocap.cameras import project, ring_rig, write_pose2sim_calibration
+from mocap.data.openpose import LAYOUTS, OpenPoseFormatError, load_openpose_sequence
+from mocap.eval.keypoint_metrics import detection_residuals, triangulate_detections
+
+DEMO = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "pose2sim-demo"
+needs_demo = pytest.mark.skipif(not (DEMO / "Calib.toml").is_file(), reason="Pose2Sim demo data not present")
+
+
+def write_project(root: Path, frames: int = 3, bystander: bool = True) -> tuple:
+    """A Pose2Sim-style folder: 3 cameras, BODY_25B keypoints of a subject at the centre and
+    of a bystander off-centre, seen by two of the cameras, projected exactly (the subject
+    listed second); returns (rig, subject points (25, 3))."""
+    rig = ring_rig(3, 3.0, 1.5, 640, 480, fov_deg=50, look_at=(0, 0, 1.0),
+                   names=["cam_01", "cam_02", "cam_03"])
+    write_pose2sim_calibration(rig, root / "Calib.toml")
+    rng = np.random.default_rng(0)
+    subject = rng.uniform([-0.3, -0.2, 0.1], [0.3, 0.2, 1.7], (25, 3))
+    other = subject + [1.2, 0.3, 0.0]
+    for c, name in enumerate(["cam01", "cam02", "cam03"]):
+        folder = root / "pose" / f"{name}_json"
+        folder.mkdir(parents=True)
+        for f in range(frames):
+            people = []
+            for pts in [other, subject] if bystander and c < 2 else [subject]:
+                px = project(rig[c], pts + [0.01 * f, 0, 0])
+                kp = np.concatenate([px, np.full((25, 1), 0.8)], axis=1)
+                kp[3] = 0.0                                                    # l_ear not found
+                people.append({"person_id": [-1], "pose_keypoints_2d": kp.ravel().tolist()})
+            (folder / f"{name}.{f:04d}.json").write_text(json.dumps({"version": 1.3, "people": people}))
+    return rig, subject
+
+
+def test_synthetic_project_is_read_with_the_subject_and_landmark_labels(tmp_path):
+    rig, subject = write_project(tmp_path)
+    seq = load_openpose_sequence(tmp_path, fps=60)
+    assert seq.rig.names == ("cam_01", "cam_02", "cam_03") and seq.num_frames == 3 and seq.gt is None
+    assert seq.detections.labels == LAYOUTS["BODY_25B"]
+    det = seq.detections.select(0)
+    assert len(det) == 3 * 24 and "l_ear" not in {det.labels[i] for i in det.label}
+    X = triangulate_detections(seq.rig, seq.detections, det.labels, 1)[0]
+    ok = np.isfinite(X[:, 0])
+    np.testing.assert_allclose(X[ok], subject[ok], atol=1e-6)            # the subject, not the bystander
+    everyone = load_openpose_sequence(tmp_path, person="all")
+    assert len(everyone.detections) == len(seq.detections) * 5 // 3
+
+
+def test_malformed_json_is_rejected_naming_the_file(tmp_path):
+    write_project(tmp_path, frames=2)
+    bad = tmp_path / "pose" / "cam02_json" / "cam02.0001.json"
+    bad.write_text('{"people": [{"pose_keypoints_2d": [1, 2, 3')
+    with pytest.raises(OpenPoseFormatError, match=r"cam02\.0001\.json.*not valid JSON"):
+        load_openpose_sequence(tmp_path)
+    bad.write_text(json.dumps({"people": [{"pose_keypoints_2d": [1.0, 2.0, 0.5] * 18}]}))
+    with pytest.raises(OpenPoseFormatError, match="54 values.*expected 75"):
+        load_openpose_sequence(tmp_path)
+    bad.write_text(json.dumps({"persons": []}))
+    with pytest.raises(OpenPoseFormatError, match="'people' list"):
+        load_openpose_sequence(tmp_path)
+
+
+def test_camera_names_that_do_not_match_the_folders_are_rejected(tmp_path):
+    write_project(tmp_path, frames=1)
+    shutil.move(tmp_path / "pose" / "cam03_json", tmp_path / "pose" / "side_json")
+    match = r"do not match the keypoint folders.*no folder for \['cam_03'\]"
+    with pytest.raises(OpenPoseFormatError, match=match):
+        load_openpose_sequence(tmp_path)
+
+
+@needs_demo
+def test_the_pose2sim_demo_loads_and_its_subject_triangulates_consistently():
+    seq = load_openpose_sequence(DEMO, fps=60)
+    assert seq.rig.names == ("cam_01", "cam_02", "cam_03", "cam_04") and seq.num_frames == 100
+    assert tuple(seq.rig.sizes[0]) == (1088, 1920)
+    det = seq.detections
+    assert 20 <= np.bincount(det.frame * 4 + det.view).mean() <= 25          # one person per view
+    X = triangulate_detections(seq.rig, det, det.labels, seq.num_frames)
+    err, view = detection_residuals(seq.rig, X, det.labels, det)
+    assert 5.0 < np.median(err) < 20.0                                       # README: ~12 px
+    height = np.nanmax(X[:, :, 2], axis=1) - np.nanmin(X[:, :, 2], axis=1)
+    assert 1.4 < np.nanmedian(height) < 2.0                                  # an adult, in metres
