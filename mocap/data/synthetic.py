@@ -18,8 +18,15 @@ Progress = Callable[[int, int], None]
 
 
 def marker_visibility(vertices: np.ndarray, faces: np.ndarray, markers: np.ndarray,
-                      rig: Rig, tolerance: float = 0.02) -> np.ndarray:
-    """(C, L) bool: markers not hidden by the body from each camera centre (ray casting)."""
+                      rig: Rig, tolerance: float = 0.02, face_parts: np.ndarray | None = None,
+                      own_parts: list[set[int]] | None = None) -> np.ndarray:
+    """(C, L) bool: markers not hidden by the body from each camera centre (ray casting).
+
+    Without ``own_parts`` a marker is hidden by any surface in front of it (a physical marker
+    on or in the body, as rendered). With ``face_parts`` (F,) and ``own_parts`` (a set of
+    part ids per marker), a surface of the marker's own parts in front of it does not hide it:
+    the semantics of a keypoint detector, which sees a joint inside its own limb.
+    """
     import trimesh
 
     mesh = trimesh.Trimesh(vertices, faces, process=False)
@@ -27,11 +34,30 @@ def marker_visibility(vertices: np.ndarray, faces: np.ndarray, markers: np.ndarr
     for c, center in enumerate(rig.centers):
         d = markers - center
         dist = np.linalg.norm(d, axis=1)
-        loc, ray_idx, _ = mesh.ray.intersects_location(np.repeat(center[None], len(markers), 0),
-                                                       d / dist[:, None], multiple_hits=False)
+        loc, ray_idx, tri = mesh.ray.intersects_location(np.repeat(center[None], len(markers), 0),
+                                                         d / dist[:, None], multiple_hits=False)
         if len(ray_idx):
             hit_dist = np.linalg.norm(loc - center, axis=1)
-            out[c, ray_idx] = hit_dist >= dist[ray_idx] - tolerance
+            visible = hit_dist >= dist[ray_idx] - tolerance
+            if own_parts is not None and face_parts is not None:
+                own = np.array([face_parts[t] in own_parts[r] for t, r in zip(tri, ray_idx, strict=True)])
+                visible |= own
+            out[c, ray_idx] = visible
+    return out
+
+
+def landmark_parts(body: BodyModel, landmarks: LandmarkSet) -> list[set[int]]:
+    """Parts whose surface may cover each landmark without hiding it from a keypoint detector:
+    its carrier joint, the joint it sits at, and their parents and children."""
+    out = []
+    for lm, j in zip(landmarks.landmarks, landmarks.joint, strict=True):
+        joints = {int(j)} | ({body.joint_index(lm.at)} if lm.at is not None else set())
+        near = set(joints)
+        for k in joints:
+            if body.parents[k] >= 0:
+                near.add(int(body.parents[k]))
+            near |= {int(ch) for ch in np.flatnonzero(body.parents == k)}
+        out.append(near)
     return out
 
 
@@ -68,6 +94,8 @@ def generate_sequence(body: BodyModel, rig: Rig, chi: np.ndarray, alpha: np.ndar
         renderer = RGBRenderer(w, h)
         texture = body_texture(body.part_labels, body.joint_names, seed=seed)
     rest_pts = landmarks.rest_points(shaped)
+    face_parts = body.part_labels[body.faces[:, 0]]
+    own_parts = landmark_parts(body, landmarks)
     try:
         for f in range(F):
             out = shaped.pose(chi[f])
@@ -90,7 +118,8 @@ def generate_sequence(body: BodyModel, rig: Rig, chi: np.ndarray, alpha: np.ndar
                 mpx, mdepth = project(rig, gt_markers[f], return_depth=True)
                 vis = mdepth > 0.05
                 if occlusion:
-                    vis &= marker_visibility(verts, body.faces, gt_markers[f], rig)
+                    vis &= marker_visibility(verts, body.faces, gt_markers[f], rig, face_parts=face_parts,
+                                             own_parts=own_parts)
                 for c in range(C):
                     lab, xy, conf = detections.sample(mpx[c], vis[c], w, h, rng)
                     det_rows += [(f, c, int(lb), x, y, cf)
