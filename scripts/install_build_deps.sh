@@ -8,6 +8,7 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 bash scripts/setup_env.sh
 export UV_PYTHON_DOWNLOADS=never
+uv() { .venv/bin/uv "$@"; }
 PY="${PYTHON:-python3.11}"; command -v "$PY" >/dev/null || PY=python3
 [ -x .venv-build/bin/python ] || uv venv -q --python "$PY" .venv-build
 uv pip sync -q --python .venv-build/bin/python requirements.lock
