@@ -106,6 +106,16 @@ def write_sequence(seq: Sequence, folder: str | Path, overwrite: bool = False) -
     return folder
 
 
+def _read_json(path: Path, hint: str) -> dict:
+    """A JSON file of the folder; a missing or invalid one names the file (and ``hint``)."""
+    if not path.is_file():
+        raise SequenceFormatError(f"{path}: not found ({hint})")
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise SequenceFormatError(f"{path}: invalid JSON ({exc})") from exc
+
+
 def _require(obj: dict, key: str, where: Path):
     if key not in obj:
         raise SequenceFormatError(f"{where}: missing field '{key}'")
@@ -140,12 +150,7 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4) 
     """Read and validate a sequence folder (``images=False`` skips the RGB images)."""
     folder = Path(folder)
     meta_path = folder / "sequence.json"
-    if not meta_path.is_file():
-        raise SequenceFormatError(f"{meta_path}: not found (is {folder} a sequence folder?)")
-    try:
-        info = json.loads(meta_path.read_text())
-    except json.JSONDecodeError as exc:
-        raise SequenceFormatError(f"{meta_path}: invalid JSON ({exc})") from exc
+    info = _read_json(meta_path, f"is {folder} a sequence folder?")
     fmt = _require(info, "format", meta_path)
     if fmt != FORMAT:
         raise SequenceFormatError(f"{meta_path}: field 'format' is {fmt!r}, expected {FORMAT!r}")
@@ -172,12 +177,7 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4) 
 
 
 def _load_detections(path: Path, views: list[str]) -> Detections:
-    if not path.is_file():
-        raise SequenceFormatError(f"{path}: not found (sequence.json lists detections)")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise SequenceFormatError(f"{path}: invalid JSON ({exc})") from exc
+    d = _read_json(path, "sequence.json lists detections")
     labels = tuple(_require(d, "labels", path))
     if _require(d, "columns", path) != _COLUMNS:
         raise SequenceFormatError(f"{path}: field 'columns' must be {_COLUMNS}")

@@ -44,7 +44,8 @@ class HybridTracker(LocalTracker):
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, diag = self.local_step(frame, predicted)
         t1 = time.perf_counter()
-        check = self.detector(self.shaped.pose(chi).vertices[0], frame.masks)
+        verts = self.shaped.pose(chi).vertices[0]
+        check = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
         diag.update({"misaligned_limbs": check.names, "limb_errors": check.errors, "apf_called": 0})
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
@@ -71,8 +72,9 @@ class HybridTracker(LocalTracker):
                 "energy_evaluations": apf.evaluations, "refine": refine["local"],
                 "ignored_views": list(target.ignored)})
             timings.update({"apf": t3 - t2, "refine": time.perf_counter() - t3})
+            verts = self.shaped.pose(chi).vertices[0]
         if self.sift is not None and frame.images is not None:
-            self.sift.remember(frame.images, self.shaped.pose(chi).vertices[0].astype(np.float64))
+            self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]
         diag["timings"] = timings
         return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=diag)

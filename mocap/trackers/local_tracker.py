@@ -95,10 +95,11 @@ class LocalTracker(SilhouetteInitialisation):
         start = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, diag = self.local_step(frame, start)
         t1 = time.perf_counter()
-        limbs = self.detector(self.shaped.pose(chi).vertices[0], frame.masks)
+        verts = self.shaped.pose(chi).vertices[0]
+        limbs = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
         if self.sift is not None and frame.images is not None:
-            self.sift.remember(frame.images, self.shaped.pose(chi).vertices[0].astype(np.float64))
+            self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]
         diag.update({"misaligned_limbs": limbs.names, "limb_errors": limbs.errors,
                      "timings": {"local": t1 - t0, "misalignment": t2 - t1}})
