@@ -38,9 +38,9 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
 
         out.update(keypoint_run_metrics(body, seq, estimates))
     out["sec_per_frame"] = float(np.mean(tracked)) if tracked else 0.0
-    evals = [e.diagnostics.get("energy_evaluations", 0) for e in estimates[1:]]
+    evals = [e.diagnostics.energy_evaluations for e in estimates[1:]]
     out["energy_evals_per_frame"] = float(np.mean(evals)) if evals else 0.0
-    calls = [e.diagnostics["apf_called"] for e in estimates[1:] if "apf_called" in e.diagnostics]
+    calls = [e.diagnostics.apf_called for e in estimates[1:] if e.diagnostics.apf_called is not None]
     if calls:
         out["apf_calls_per_frame"] = float(np.mean(calls))
     return out

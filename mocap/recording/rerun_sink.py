@@ -37,6 +37,7 @@ from mocap.energy.silhouette import downscale_masks
 from mocap.recording.sink import RunInfo
 from mocap.render import get_rasterizer
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.diagnostics import flatten_scalars
 
 DIFF_COLORS = {"observed_only": (40, 200, 60), "estimate_only": (190, 40, 200), "both": (200, 200, 200)}
 
@@ -119,22 +120,20 @@ class RerunSink:
         rec, f = self.rec, frame.index
         rec.set_time("frame", sequence=f)
         d = estimate.diagnostics
-        for term, value in d.get("energy_terms", {}).items():
-            rec.log(f"plots/energy/{term}", rr.Scalars(value))
-        if "energy" in d:
-            rec.log("plots/energy/total", rr.Scalars(d["energy"]))
+        for key, value in d.scalars().items():      # energy/*, timing/*, misalignment/*, ...
+            rec.log(f"plots/{key}", rr.Scalars(value))
+        if d.misalignment is not None and d.misalignment.limbs:
+            rec.log("events/decisions", rr.TextLog(f"misaligned: {', '.join(d.misalignment.limbs)}"
+                                                + (" -> APF" if d.misalignment.apf_called else "")))
         if error_mm is not None:
             rec.log("plots/error/mpjpe_mm", rr.Scalars(error_mm))
         rec.log("plots/timing/step", rr.Scalars(seconds))
-        for stage, value in d.get("timings", {}).items():
-            rec.log(f"plots/timing/{stage}", rr.Scalars(value))
-        layers = d.get("layers")
+        layers = d.anneal.layers if d.anneal is not None else ()
+        for m, layer in enumerate(layers):
+            rec.set_time("anneal_step", sequence=f * len(layers) + m)
+            for key, value in flatten_scalars("", layer).items():
+                rec.log(f"plots/layers/{key}", rr.Scalars(value))
         if layers:
-            L = len(layers["beta"])
-            for m in range(L):
-                rec.set_time("anneal_step", sequence=f * L + m)
-                for key in ("energy_min", "beta", "survival", "ess", "spread"):
-                    rec.log(f"plots/layers/{key}", rr.Scalars(layers[key][m]))
             rec.reset_time()
             rec.set_time("frame", sequence=f)
         if f % self.every:
@@ -145,10 +144,10 @@ class RerunSink:
             if J is not None:
                 strips = [np.stack([J[parents[j]], J[j]]) for j in range(1, len(parents))]
                 rec.log(f"world/skeleton/{name}", rr.LineStrips3D(strips, colors=[color], radii=0.01))
-        landmarks = d.get("landmarks")
-        if landmarks is not None:
-            rec.log("world/landmarks/estimate", rr.Points3D(landmarks, radii=0.02, colors=[255, 60, 60]))
-        particles = d.get("particles")
+        if d.landmarks is not None:
+            rec.log("world/landmarks/estimate", rr.Points3D(d.landmarks.points, radii=0.02,
+                                                            colors=[255, 60, 60]))
+        particles = d.particles
         if self.particles and particles:
             shaped = self._shaped(estimate.alpha)
             for name, x in (("first", particles[0]), ("last", particles[-1])):

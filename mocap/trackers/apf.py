@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from mocap.trackers.anneal import (  # noqa: F401  (re-exported: the APF's public names)
+    AnnealTrace,
     APFDiagnostics,
     APFSettings,
-    AnnealTrace,
     EnergyFn,
     LayerTrace,
     anneal,

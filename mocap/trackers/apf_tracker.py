@@ -3,7 +3,7 @@ and ``apf_prior`` (25 x 10, with the pose prior E_P), Zhang et al. 2013, Sec. 4.
 
 from __future__ import annotations
 
-import time
+import dataclasses
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -15,8 +15,10 @@ from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import EnergyWeights, FrameEnergy
 from mocap.trackers.apf import APFSettings, run_apf
-from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.base import Frame
+from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
+from mocap.trackers.step import AnnealedStep
 
 
 def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: float) -> np.ndarray:
@@ -24,7 +26,7 @@ def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: f
     return np.r_[np.full(3, translation), np.full(3, rotation), np.full(body.num_dofs - 6, joint)]
 
 
-class APFTracker(SilhouetteInitialisation):
+class APFTracker(AnnealedStep, SilhouetteInitialisation):
     """Tracks one subject of known shape from multi-view silhouettes."""
 
     def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, weights: EnergyWeights,
@@ -59,27 +61,11 @@ class APFTracker(SilhouetteInitialisation):
         target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
         return FrameEnergy(self.weights, self.energy, target, predicted, self.prior, dof_mask), target.ignored
 
-    def step(self, frame: Frame) -> Estimate:
-        if self.shaped is None:
-            raise RuntimeError("initialize() the tracker before step()")
-        t0 = time.perf_counter()
-        predicted = self.predict()
-        energy, ignored = self.frame_energy(frame, predicted)
-        t1 = time.perf_counter()
-        chi, diag = run_apf(energy, predicted, self.std0, self.body.limits, self.settings,
-                            self.rng, keep_particles=self.keep_particles,
-                            previous=self.history[-1], root_point=self.shaped.rest_joints[0])
-        t2 = time.perf_counter()
-        terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}
-        self.history.append(chi)
-        self.history = self.history[-3:]
-        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics={
-            "energy_terms": terms, "energy": float(sum(terms.values())),
-            "layers": {"energy_min": diag.energy_min, "energy_mean": diag.energy_mean,
-                       "beta": diag.beta, "survival": diag.survival, "ess": diag.ess,
-                       "spread": diag.spread},
-            "particles": diag.particles if self.keep_particles else None,
-            "energy_evaluations": diag.evaluations,
-            "ignored_views": list(ignored),
-            "timings": {"observation": t1 - t0, "search": t2 - t1},
-        })
+    def search(self, energy: FrameEnergy, predicted: np.ndarray):
+        return run_apf(energy, predicted, self.std0, self.body.limits, self.settings, self.rng,
+                       keep_particles=self.keep_particles, previous=self.history[-1],
+                       root_point=self.shaped.rest_joints[0])
+
+    def report(self, energy, ignored, chi, trace, timings) -> StepDiagnostics:
+        return dataclasses.replace(super().report(energy, ignored, chi, trace, timings),
+                                   ignored_views=tuple(ignored))

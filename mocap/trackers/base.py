@@ -8,6 +8,7 @@ from typing import Protocol
 import numpy as np
 
 from mocap.data.sequence import Detections
+from mocap.trackers.diagnostics import StepDiagnostics
 
 
 @dataclass(frozen=True)
@@ -23,12 +24,13 @@ class Frame:
 
 @dataclass(frozen=True)
 class Estimate:
-    """A tracker's answer for one frame: pose chi (D,), shape alpha (K,) and diagnostics
-    (plain data: energies per term and per layer, timings in seconds, counts)."""
+    """A tracker's answer for one frame: pose chi (D,), shape alpha (K,) and what the step
+    reports (:class:`mocap.trackers.diagnostics.StepDiagnostics`: energies per term, annealing
+    layers, local iterations, decisions, timings in seconds)."""
 
     chi: np.ndarray
     alpha: np.ndarray
-    diagnostics: dict = field(default_factory=dict)
+    diagnostics: StepDiagnostics = field(default_factory=StepDiagnostics)
 
 
 class Tracker(Protocol):

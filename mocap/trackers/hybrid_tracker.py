@@ -5,6 +5,7 @@ local result), and a short local refinement follows."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Mapping
 
@@ -19,6 +20,7 @@ from mocap.energy.total import EnergyWeights, FrameEnergy
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.local_tracker import LocalTracker
 
 
@@ -42,12 +44,13 @@ class HybridTracker(LocalTracker):
             raise RuntimeError("initialize() the tracker before step()")
         t0 = time.perf_counter()
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
-        chi, diag = self.local_step(frame, predicted)
+        chi, local = self.local_step(frame, predicted)
         t1 = time.perf_counter()
         verts = self.shaped.pose(chi).vertices[0]
         check = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
-        diag.update({"misaligned_limbs": check.names, "limb_errors": check.errors, "apf_called": 0})
+        decision = Misalignment(tuple(check.names), dict(check.errors), apf_called=bool(check.names))
+        report = StepDiagnostics(local=local, misalignment=decision)
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
         if check.names:
             free = self.detector.free_dofs(check)
@@ -63,18 +66,14 @@ class HybridTracker(LocalTracker):
             finally:
                 self.iterations = refine_iters
             terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}
-            diag.update({
-                "apf_called": 1, "apf_free_dofs": [self.body.dof_names[d] for d in np.flatnonzero(free)],
-                "energy_terms": terms, "energy": float(sum(terms.values())),
-                "layers": {"energy_min": apf.energy_min, "energy_mean": apf.energy_mean, "beta": apf.beta,
-                           "survival": apf.survival, "ess": apf.ess, "spread": apf.spread},
-                "particles": apf.particles if self.keep_particles else None,
-                "energy_evaluations": apf.evaluations, "refine": refine["local"],
-                "ignored_views": list(target.ignored)})
+            decision = dataclasses.replace(
+                decision, free_dofs=tuple(self.body.dof_names[d] for d in np.flatnonzero(free)))
+            report = dataclasses.replace(report, misalignment=decision, energy_terms=terms, anneal=apf,
+                                         refine=refine, ignored_views=tuple(target.ignored))
             timings.update({"apf": t3 - t2, "refine": time.perf_counter() - t3})
             verts = self.shaped.pose(chi).vertices[0]
         if self.sift is not None and frame.images is not None:
             self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]
-        diag["timings"] = timings
-        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=diag)
+        return Estimate(chi=chi, alpha=self.shaped.alpha,
+                        diagnostics=dataclasses.replace(report, timings=timings))

@@ -17,6 +17,7 @@ from mocap.local.optimize import optimize_pose
 from mocap.local.sift import SiftTracker
 from mocap.local.solver import PointLines
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.diagnostics import LocalTrace, Misalignment, StepDiagnostics
 from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
 
 
@@ -60,20 +61,18 @@ class LocalTracker(SilhouetteInitialisation):
         self.last_images = None
 
     def local_step(self, frame: Frame, start: np.ndarray,
-                   free: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
-        """Optimise from ``start`` on this frame; diagnostics include the correspondence counts."""
+                   free: np.ndarray | None = None) -> tuple[np.ndarray, LocalTrace]:
+        """Optimise from ``start`` on this frame; the trace holds the correspondence counts."""
         if frame.masks is None:
             raise ValueError(f"frame {frame.index}: the local tracker needs silhouette masks")
         obs = observed_contours(frame.masks)
-        sift_pairs = None
-        diag: dict = {}
+        sift_pairs = sift_info = None
         if self.sift is not None:
             if frame.images is None:
-                diag["sift"] = "no images in this sequence: contour correspondences only"
+                sift_info = "no images in this sequence: contour correspondences only"
             else:
                 prev_verts = self.shaped.pose(self.history[-1]).vertices[0].astype(np.float64)
                 sift_pairs, sift_info = self.sift.match(frame.images, prev_verts)
-                diag["sift"] = sift_info
 
         def correspond(verts: np.ndarray):
             corr, info = self.matcher(verts, obs)
@@ -83,17 +82,14 @@ class LocalTracker(SilhouetteInitialisation):
 
         chi, opt = optimize_pose(self.shaped, start, correspond, self.iterations, self.tolerance,
                                  self.damping, free=free)
-        diag.update({"local": {k: v for k, v in opt.items() if k != "per_iteration"},
-                     "views_without_contour": opt["per_iteration"][-1].get("views_without_contour", [])
-                     if opt.get("per_iteration") else []})
-        return chi, diag
+        return chi, LocalTrace.from_optimizer(opt, sift_info)
 
     def step(self, frame: Frame) -> Estimate:
         if self.shaped is None:
             raise RuntimeError("initialize() the tracker before step()")
         t0 = time.perf_counter()
         start = predict_constant_velocity(self.history[-2:], self.prediction_damping)
-        chi, diag = self.local_step(frame, start)
+        chi, local = self.local_step(frame, start)
         t1 = time.perf_counter()
         verts = self.shaped.pose(chi).vertices[0]
         limbs = self.detector(verts, frame.masks)
@@ -101,6 +97,6 @@ class LocalTracker(SilhouetteInitialisation):
         if self.sift is not None and frame.images is not None:
             self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]
-        diag.update({"misaligned_limbs": limbs.names, "limb_errors": limbs.errors,
-                     "timings": {"local": t1 - t0, "misalignment": t2 - t1}})
-        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=diag)
+        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=StepDiagnostics(
+            local=local, misalignment=Misalignment(tuple(limbs.names), dict(limbs.errors)),
+            timings={"local": t1 - t0, "misalignment": t2 - t1}))

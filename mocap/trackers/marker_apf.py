@@ -14,7 +14,6 @@ markers and on OpenPose keypoints.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -34,7 +33,8 @@ from mocap.energy.markers import (
 )
 from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
-from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.base import Frame
+from mocap.trackers.diagnostics import LandmarkReport, StepDiagnostics
 from mocap.trackers.marker_anneal import PartGroup, part_groups, run_annealing
 from mocap.trackers.marker_init import (
     fit_shape,
@@ -44,6 +44,7 @@ from mocap.trackers.marker_init import (
     triangulate_candidates,
 )
 from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+from mocap.trackers.step import AnnealedStep
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,7 @@ class MarkerInit:
     fit_shape: bool = True
 
 
-class MarkerAPFTracker:
+class MarkerAPFTracker(AnnealedStep):
     """Tracks one subject from 2D detections (see the module docstring)."""
 
     def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, likelihood: MarkerLikelihood,
@@ -170,37 +171,22 @@ class MarkerAPFTracker:
                               predicted=pred_pts, weak=weak)
         return energy, n_views
 
-    def step(self, frame: Frame) -> Estimate:
-        if self.shaped is None:
-            raise RuntimeError("initialize() the tracker before step()")
-        t0 = time.perf_counter()
-        predicted = self.predict()
-        energy, n_views = self.frame_energy(frame, predicted)
-        t1 = time.perf_counter()
-        chi, diag = run_annealing(energy.landmark_costs, predicted, self.std0, self.body.limits,
-                                  self.settings, self.rng, keep_particles=self.keep_particles,
-                                  previous=self.history[-1], root_point=self.shaped.rest_joints[0],
-                                  groups=self.groups)
-        t2 = time.perf_counter()
+    def search(self, energy: MarkerEnergy, predicted: np.ndarray):
+        return run_annealing(energy.landmark_costs, predicted, self.std0, self.body.limits,
+                             self.settings, self.rng, keep_particles=self.keep_particles,
+                             previous=self.history[-1], root_point=self.shaped.rest_joints[0],
+                             groups=self.groups)
+
+    def report(self, energy, n_views, chi, trace, timings) -> StepDiagnostics:
         points = energy.points(chi[None]).astype(np.float64)
         terms = {k: float(v[0]) for k, v in energy.terms_of_points(points).items()}
         reproj = reprojection_errors(points[0], energy.obs, self.pinhole, self.likelihood.gate_px)
-        self.history = [*self.history[-2:], chi]
-        names = self.landmarks.names
-        weak = [n for n, w in zip(names, energy.weak, strict=True) if w]
-        return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics={
-            "energy_terms": terms, "energy": float(sum(terms.values())),
-            "layers": {"energy_min": diag.energy_min, "energy_mean": diag.energy_mean,
-                       "beta": diag.beta, "survival": diag.survival, "ess": diag.ess,
-                       "spread": diag.spread},
-            "particles": diag.particles if self.keep_particles else None,
-            "energy_evaluations": diag.evaluations,
-            "landmarks": points[0], "landmark_names": list(names),
-            "views_per_landmark": {n: int(v) for n, v in zip(names, n_views, strict=True)},
-            "weak_landmarks": weak,
-            "reprojection_px": float(np.nanmedian(reproj)) if np.isfinite(reproj).any() else float("nan"),
-            "timings": {"observation": t1 - t0, "search": t2 - t1},
-        })
+        names = tuple(self.landmarks.names)
+        report = LandmarkReport(
+            names=names, points=points[0], views={n: int(v) for n, v in zip(names, n_views, strict=True)},
+            weak=tuple(n for n, w in zip(names, energy.weak, strict=True) if w),
+            reprojection_px=float(np.nanmedian(reproj)) if np.isfinite(reproj).any() else float("nan"))
+        return StepDiagnostics(energy_terms=terms, anneal=trace, landmarks=report, timings=timings)
 
 
 def make_init(settings: Mapping | None) -> MarkerInit:

@@ -11,6 +11,7 @@ import numpy as np
 from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.trackers.base import Estimate, Frame, Tracker
+from mocap.trackers.diagnostics import StepDiagnostics
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ def track_sequence(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha:
     F = seq.num_frames if frames is None else min(frames, seq.num_frames)
     tracker.initialize(init_chi, alpha)
     estimates = [Estimate(chi=np.asarray(init_chi, np.float64), alpha=np.asarray(alpha),
-                          diagnostics={"initial": True})]
+                          diagnostics=StepDiagnostics(initial=True))]
     seconds = [0.0]
     if on_frame is not None:
         on_frame(0, estimates[0], 0.0)

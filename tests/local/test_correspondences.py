@@ -66,7 +66,7 @@ def test_local_tracker_corrects_a_perturbed_start(body, walk):
     chi, diag = tr.local_step(frame_of(seq, 1), start)
     err = lambda c: np.linalg.norm(sb.joints(c)[0] - seq.gt.joints[1], axis=1).mean()  # noqa: E731
     assert err(chi) < err(start) / 2        # closest-point matching converges gradually
-    assert diag["local"]["iterations"] >= 1 and not diag["local"]["skipped"]
+    assert diag.iterations >= 1 and not diag.skipped
 
 
 def test_view_without_contour_is_reported_and_tracking_goes_on(body, walk):

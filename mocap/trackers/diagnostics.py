@@ -1,0 +1,178 @@
+"""What a tracker step reports, as frozen dataclasses (plain data, no rerun, no I/O).
+
+:class:`StepDiagnostics` is ``Estimate.diagnostics``: energies per term, the annealed
+search (:class:`mocap.trackers.anneal.AnnealTrace`, one :class:`LayerTrace` per layer), the
+local optimisation (:class:`LocalTrace`), decisions (:class:`Misalignment`: misaligned
+limbs, APF called), the marker tracker's landmarks (:class:`LandmarkReport`), timings.
+
+Consumers (the recording sink, the run metrics) read the typed fields; :meth:`StepDiagnostics.scalars`
+flattens every numeric field of every report into ``{"group/name": value}``, so a field a
+tracker adds is plotted without the sink knowing its name. ``d["key"]`` / ``d.get`` give
+the old dictionary view (:meth:`StepDiagnostics.as_dict`) for code written against it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from numbers import Number
+
+import numpy as np
+
+from mocap.trackers.anneal import AnnealTrace, LayerTrace  # noqa: F401  (LayerTrace re-exported)
+
+
+@dataclass(frozen=True)
+class LocalTrace:
+    """One local optimisation (:func:`mocap.local.optimize.optimize_pose`): iterations run,
+    correspondences and RMS point-line error (m) per iteration, skipped updates and why,
+    SIFT information (matches per view, notes) and views without an observed contour."""
+
+    iterations: int = 0
+    correspondences: tuple[int, ...] = ()
+    rms_m: tuple[float, ...] = ()
+    skipped: tuple[str, ...] = ()
+    sift: Mapping | str | None = None
+    views_without_contour: tuple[str, ...] = ()
+
+    @classmethod
+    def from_optimizer(cls, opt: Mapping, sift: Mapping | str | None = None) -> LocalTrace:
+        last = opt["per_iteration"][-1] if opt.get("per_iteration") else {}
+        return cls(iterations=int(opt.get("iterations", 0)),
+                   correspondences=tuple(int(c) for c in opt.get("correspondences", ())),
+                   rms_m=tuple(float(r) for r in opt.get("rms_m", ())),
+                   skipped=tuple(opt.get("skipped", ())), sift=sift,
+                   views_without_contour=tuple(last.get("views_without_contour", ())))
+
+
+@dataclass(frozen=True)
+class Misalignment:
+    """The misalignment check after local optimisation: flagged limbs, each limb's error
+    (share of its vertices outside the observed silhouettes); for the hybrid tracker,
+    whether the APF ran (None: the tracker has no APF fallback) and over which DOFs."""
+
+    limbs: tuple[str, ...] = ()
+    limb_errors: Mapping[str, float] = field(default_factory=dict)
+    apf_called: bool | None = None
+    free_dofs: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class LandmarkReport:
+    """The marker tracker's landmarks: names (L,), estimated points (L, 3) world metres,
+    views with a detection near each, the weak ones (temporal coherence), and the median
+    reprojection error (px)."""
+
+    names: tuple[str, ...]
+    points: np.ndarray
+    views: Mapping[str, int]
+    weak: tuple[str, ...]
+    reprojection_px: float
+
+
+@dataclass(frozen=True)
+class StepDiagnostics:
+    """Everything one step reports. ``initial``: the estimate is the initial pose."""
+
+    energy_terms: Mapping[str, float] = field(default_factory=dict)
+    anneal: AnnealTrace | None = None
+    local: LocalTrace | None = None
+    refine: LocalTrace | None = None
+    misalignment: Misalignment | None = None
+    landmarks: LandmarkReport | None = None
+    timings: Mapping[str, float] = field(default_factory=dict)
+    ignored_views: tuple[str, ...] = ()
+    initial: bool = False
+
+    @property
+    def energy(self) -> float | None:
+        return float(sum(self.energy_terms.values())) if self.energy_terms else None
+
+    @property
+    def energy_evaluations(self) -> int:
+        return self.anneal.evaluations if self.anneal is not None else 0
+
+    @property
+    def particles(self) -> list[np.ndarray]:
+        """Particles (P, D) of the layers that kept them (empty otherwise)."""
+        return self.anneal.particles if self.anneal is not None else []
+
+    @property
+    def apf_called(self) -> bool | None:
+        return None if self.misalignment is None else self.misalignment.apf_called
+
+    def scalars(self) -> dict[str, float]:
+        """Every numeric field, flattened: ``energy/<term>``, ``energy/total``,
+        ``timing/<stage>``, ``misalignment/limb_errors/<limb>``, ``local/iterations``, ...
+        (per-layer annealing values are in ``anneal``; arrays and text are left out)."""
+        out = flatten_scalars("", {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                            if f.name not in ("anneal", "energy_terms", "timings", "initial")})
+        out.update({f"energy/{k}": float(v) for k, v in self.energy_terms.items()})
+        if self.energy_terms:
+            out["energy/total"] = self.energy
+        out.update({f"timing/{k}": float(v) for k, v in self.timings.items()})
+        if self.misalignment is not None:
+            out["misalignment/count"] = float(len(self.misalignment.limbs))
+        return out
+
+    def as_dict(self) -> dict:
+        """The old dictionary form of the diagnostics (keys as the trackers wrote them)."""
+        d: dict = {"timings": dict(self.timings)}
+        if self.initial:
+            d["initial"] = True
+        if self.energy_terms:
+            d.update(energy_terms=dict(self.energy_terms), energy=self.energy)
+        if self.anneal is not None:
+            a = self.anneal
+            d.update(layers={k: getattr(a, k) for k in ("energy_min", "energy_mean", "beta", "survival",
+                                                        "ess", "spread")},
+                     particles=a.particles or None, energy_evaluations=a.evaluations)
+        if self.ignored_views or self.anneal is not None:
+            d["ignored_views"] = list(self.ignored_views)
+        if self.local is not None:
+            loc = self.local
+            d["local"] = {"iterations": loc.iterations, "skipped": list(loc.skipped),
+                          "correspondences": list(loc.correspondences), "rms_m": list(loc.rms_m)}
+            d["views_without_contour"] = list(loc.views_without_contour)
+            if loc.sift is not None:
+                d["sift"] = loc.sift
+        if self.refine is not None:
+            d["refine"] = {"iterations": self.refine.iterations, "rms_m": list(self.refine.rms_m)}
+        if self.misalignment is not None:
+            m = self.misalignment
+            d.update(misaligned_limbs=list(m.limbs), limb_errors=dict(m.limb_errors))
+            if m.apf_called is not None:
+                d["apf_called"] = int(m.apf_called)
+                if m.apf_called:
+                    d["apf_free_dofs"] = list(m.free_dofs)
+        if self.landmarks is not None:
+            lm = self.landmarks
+            d.update(landmarks=lm.points, landmark_names=list(lm.names),
+                     views_per_landmark=dict(lm.views), weak_landmarks=list(lm.weak),
+                     reprojection_px=lm.reprojection_px)
+        return d
+
+    # read-only mapping access to the old dictionary form
+    def __getitem__(self, key: str):
+        return self.as_dict()[key]
+
+    def __contains__(self, key: str) -> bool:
+        return key in self.as_dict()
+
+    def get(self, key: str, default=None):
+        return self.as_dict().get(key, default)
+
+
+def flatten_scalars(prefix: str, value) -> dict[str, float]:
+    """Numbers (bools included) of nested dataclasses / mappings as {"a/b/c": float}."""
+    if isinstance(value, bool | Number) and not isinstance(value, np.ndarray):
+        return {prefix: float(value)}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+    if isinstance(value, Mapping):
+        out: dict[str, float] = {}
+        for k, v in value.items():
+            out.update(flatten_scalars(f"{prefix}/{k}" if prefix else str(k), v))
+        return out
+    return {}
