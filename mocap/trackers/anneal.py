@@ -48,8 +48,8 @@ class APFSettings:
     particles: int = 100
     layers: int = 15
     survival: float = 0.5          # target survival rate alpha
-    diffusion: float = 1.0         # diffusion std = diffusion * spread of the resampled set
-    shrink: float = 0.85           # ... times shrink^m in layer m
+    diffusion: float = 0.7         # diffusion std = diffusion * spread of the resampled set
+    shrink: float = 0.9            # ... times shrink^m in layer m
     min_std_fraction: float = 0.05  # floor: this fraction of the initial std (times shrink^m)
     estimate: str = "mean"          # "mean": weighted mean of the last layer; "best": the
                                     # lowest-energy particle seen in any layer

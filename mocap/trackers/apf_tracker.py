@@ -31,7 +31,7 @@ class APFTracker(AnnealedStep, SilhouetteInitialisation):
 
     def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, weights: EnergyWeights,
                  rng: np.random.Generator, prior: PosePrior | None = None, scale: float = 0.25,
-                 init_std: Sequence[float] = (0.03, 0.03, 0.1), prediction_damping: float = 1.0,
+                 init_std: Sequence[float] = (0.03, 0.03, 0.08), prediction_damping: float = 1.0,
                  keep_particles: bool = False, name: str = "apf",
                  initialization: Mapping | None = None):
         self.body, self.rig, self.settings, self.weights = body, rig, settings, weights

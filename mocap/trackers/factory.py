@@ -3,6 +3,7 @@ plain keyword arguments in, a ready tracker out."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -24,8 +25,10 @@ def internal_scale(rig: Rig, resolution: int) -> float:
     return min(1.0, resolution / float(np.max(rig.sizes)))
 
 
-def make_pose_prior(body: BodyModel, prior_file: str | None, limit_sigma: float,
-                    limit_weight: float, learned_weight: float) -> PosePrior:
+def make_pose_prior(body: BodyModel, prior_file: str | None = None, limit_sigma: float = 0.1,
+                    limit_weight: float = 1.0, learned_weight: float = 1.0) -> PosePrior:
+    """E_P of Zhang et al. (Eq. 14): joint-limit penalty (sigma in rad) + the learned Parzen
+    density (``prior_file``; None: the prior shipped for the body)."""
     parzen = None
     if learned_weight:
         parzen = ParzenPrior.load(prior_file or default_prior_path(body.name))
@@ -33,50 +36,68 @@ def make_pose_prior(body: BodyModel, prior_file: str | None, limit_sigma: float,
                      limit_weight=limit_weight, learned_weight=learned_weight)
 
 
-def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str,
-                     particles: int, layers: int, survival: float = 0.5, diffusion: float = 1.0,
-                     shrink: float = 0.85, min_std_fraction: float = 0.05, resolution: int = 256,
-                     init_std: Sequence[float] = (0.05, 0.05, 0.15), prediction_damping: float = 0.5,
-                     energy: Mapping | None = None, prior: Mapping | None = None,
-                     keep_particles: bool = False, estimate: str = "mean",
-                     initialization: Mapping | None = None) -> APFTracker:
+def merge(base: Mapping, overrides: Mapping) -> dict:
+    """``base`` updated by ``overrides``, nested mappings merged key by key."""
+    out = dict(base)
+    for k, v in overrides.items():
+        out[k] = merge(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), Mapping) else v
+    return out
+
+
+SEARCH_FIELDS = tuple(f.name for f in dataclasses.fields(APFSettings))
+
+
+def _search(options: dict, **defaults) -> APFSettings:
+    """APFSettings from the search keys of ``options`` (popped), over ``defaults``."""
+    return APFSettings(**{**defaults, **{k: options.pop(k) for k in list(options) if k in SEARCH_FIELDS}})
+
+
+def _energy(body: BodyModel, energy: Mapping | None, prior: Mapping | None
+            ) -> tuple[EnergyWeights, PosePrior | None]:
     weights = EnergyWeights(**dict(energy or {}))
-    pose_prior = None
-    if weights.prior:
-        pose_prior = make_pose_prior(body, **dict(prior or {}))
-    settings = APFSettings(particles=particles, layers=layers, survival=survival,
-                           diffusion=diffusion, shrink=shrink, min_std_fraction=min_std_fraction,
-                           estimate=estimate)
+    return weights, (make_pose_prior(body, **dict(prior or {})) if weights.prior else None)
+
+
+def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "apf",
+                     resolution: int = 256, energy: Mapping | None = None, prior: Mapping | None = None,
+                     **options) -> APFTracker:
+    """The silhouette APF. Search keys (particles, layers, survival, diffusion, shrink,
+    min_std_fraction, estimate) go to :class:`APFSettings`, energy weights to
+    :class:`EnergyWeights`, prior options to :func:`make_pose_prior`, the rest (init_std,
+    prediction_damping, keep_particles, initialization) to :class:`APFTracker`; every default
+    is theirs. resolution: internal silhouette resolution, px of the longer image side."""
+    options = dict(options)
+    settings = _search(options)
+    weights, pose_prior = _energy(body, energy, prior)
+    if "init_std" in options:
+        options["init_std"] = tuple(options["init_std"])
     return APFTracker(body, rig, settings, weights, rng, prior=pose_prior,
-                      scale=internal_scale(rig, resolution),
-                      init_std=tuple(init_std), prediction_damping=prediction_damping,
-                      keep_particles=keep_particles, name=name, initialization=initialization)
+                      scale=internal_scale(rig, resolution), name=name, **options)
 
 
-def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str,
-                        particles: int, layers: int, survival: float = 0.25, diffusion: float = 0.7,
-                        shrink: float = 0.85, min_std_fraction: float = 0.05, estimate: str = "mean",
+def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "marker_apf",
                         gate: float = 0.04, min_views: int = 3, coherence_radius: float = 0.15,
                         coherence_weight: float = 1.0, landmarks: str | Sequence = "auto",
-                        init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
-                        min_confidence: float = 0.0, init: Mapping | None = None, crossover: bool = True,
-                        keep_particles: bool = False):
+                        init: Mapping | None = None, **options):
     """The marker tracker of Canton-Ferrer et al. 2010 (``conf/tracker/marker_apf.yaml``).
-    gate: the outlier threshold tau as a fraction of the image diagonal."""
+    gate: the outlier threshold tau as a fraction of the image diagonal. Search keys go to
+    :class:`APFSettings` (the marker defaults: 100 x 6, survival 0.25, shrink 0.85), the
+    rest (init_std, prediction_damping, min_confidence, crossover, keep_particles) to
+    :class:`MarkerAPFTracker`."""
     from mocap.energy.markers import MarkerLikelihood
     from mocap.trackers.marker_apf import MarkerAPFTracker, make_init
 
-    settings = APFSettings(particles=particles, layers=layers, survival=survival, diffusion=diffusion,
-                           shrink=shrink, min_std_fraction=min_std_fraction, estimate=estimate)
+    options = dict(options)
+    settings = _search(options, layers=6, survival=0.25, shrink=0.85)
     diagonal = float(np.hypot(*np.asarray(rig.sizes, np.float64).mean(axis=0)))
     likelihood = MarkerLikelihood(gate_px=gate * diagonal, min_views=min_views,
                                   coherence_radius=coherence_radius, coherence_weight=coherence_weight)
     if not isinstance(landmarks, str):
         landmarks = [x if isinstance(x, str) else dict(x) for x in landmarks]
+    if "init_std" in options:
+        options["init_std"] = tuple(options["init_std"])
     return MarkerAPFTracker(body, rig, settings, likelihood, rng, landmarks=landmarks,
-                            init_std=tuple(init_std), prediction_damping=prediction_damping,
-                            min_confidence=min_confidence, init=make_init(init), crossover=crossover,
-                            keep_particles=keep_particles, name=name)
+                            init=make_init(init), name=name, **options)
 
 
 def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "local",
@@ -85,17 +106,25 @@ def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, n
     return LocalTracker(body, rig, name=name, rng=rng, **options)
 
 
+#: the hybrid's APF: ``apf_prior`` (25 x 10 with the pose prior), with a wide first layer
+HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 1.0}, "init_std": (0.03, 0.03, 0.25)}
+
+
 def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "hybrid",
-                        keep_particles: bool = False, apf: Mapping, local: Mapping,
-                        initialization: Mapping | None = None) -> HybridTracker:
-    a = dict(apf)
-    weights = EnergyWeights(**dict(a.pop("energy", {}) or {}))
-    prior_cfg = a.pop("prior", None)
-    pose_prior = make_pose_prior(body, **dict(prior_cfg or {})) if weights.prior else None
-    resolution = a.pop("resolution", 256)
-    init_std = tuple(a.pop("init_std", (0.03, 0.03, 0.25)))
-    refine = a.pop("refine_iterations", 3)
-    settings = APFSettings(**a)
-    return HybridTracker(body, rig, rng, settings, weights, pose_prior, internal_scale(rig, resolution),
-                         init_std=init_std, refine_iterations=refine, keep_particles=keep_particles,
-                         name=name, initialization=initialization, **dict(local))
+                        keep_particles: bool = False, apf: Mapping | None = None,
+                        local: Mapping | None = None, initialization: Mapping | None = None) -> HybridTracker:
+    """The hybrid tracker: ``local`` holds :class:`LocalTracker`'s options, ``apf`` those of
+    its APF (as for :func:`make_apf_tracker`, plus refine_iterations; default
+    :data:`HYBRID_APF`). ``_target_`` and ``name`` keys of composed configs are ignored."""
+    a = merge(HYBRID_APF, {k: v for k, v in dict(apf or {}).items() if k not in ("_target_", "name")})
+    loc = {k: v for k, v in dict(local or {}).items() if k not in ("_target_", "name", "keep_particles")}
+    weights, pose_prior = _energy(body, a.pop("energy", None), a.pop("prior", None))
+    scale = internal_scale(rig, a.pop("resolution", 256))
+    extra = {k: a.pop(k) for k in ("refine_iterations",) if k in a}
+    init_std = tuple(a.pop("init_std"))
+    settings = _search(a)
+    if a:
+        raise TypeError(f"unknown hybrid apf options: {sorted(a)}")
+    return HybridTracker(body, rig, rng, settings, weights, pose_prior, scale, init_std=init_std,
+                         keep_particles=keep_particles, name=name, initialization=initialization,
+                         **extra, **loc)

@@ -33,7 +33,7 @@ def merge(parts: list[PointLines]) -> PointLines:
 class LocalTracker(SilhouetteInitialisation):
     """Local optimisation only: fast, accurate while the motion is slow, cannot recover."""
 
-    def __init__(self, body: BodyModel, rig: Rig, iterations: int = 6, tolerance: float = 1e-4,
+    def __init__(self, body: BodyModel, rig: Rig, iterations: int = 10, tolerance: float = 1e-4,
                  damping: float = 1e-3, prediction_damping: float = 1.0,
                  contour: Mapping | None = None, sift: Mapping | None = None,
                  misalignment: Mapping | None = None, name: str = "local",

@@ -32,6 +32,15 @@ def noisy_initial_pose(body: BodyModel, chi: np.ndarray, rng: np.random.Generato
     return np.clip(chi, lo, hi)
 
 
+def search_budget(tracker: Tracker) -> dict:
+    """Particles, layers and energy terms of a tracker's global search (the APF of a hybrid
+    tracker; zeros for a tracker without one), as the tracker holds them."""
+    settings, weights = getattr(tracker, "settings", None), getattr(tracker, "weights", None)
+    return {"particles": settings.particles if settings else 0,
+            "layers": settings.layers if settings else 0,
+            "energy_terms": list(weights.terms) if weights else []}
+
+
 def frame_of(seq: Sequence, f: int) -> Frame:
     return Frame(index=f,
                  masks=None if seq.masks is None else seq.masks[f],

@@ -1,0 +1,69 @@
+"""One source of defaults: the tracker a config composes is the tracker the Python API builds
+(same estimates for the same seed), and the composed configs are the Python presets."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra.utils import instantiate
+
+from mocap.cameras import ring_rig
+from mocap.data.generate import make_synthetic
+from mocap.trackers.presets import PRESETS, make_tracker
+from mocap.trackers.run import track_sequence
+
+CONF = Path(__file__).resolve().parents[2] / "conf"
+# small budgets, applied to both sides
+FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "layers": 2},
+        "apf_25x10": {"particles": 6, "layers": 2}, "local": {"iterations": 2},
+        "hybrid": {"local": {"iterations": 2}, "apf": {"particles": 6, "layers": 2}},
+        "marker_apf": {"particles": 8, "layers": 2}}
+
+
+def flat(d, prefix="tracker"):
+    for k, v in d.items():
+        yield from flat(v, f"{prefix}.{k}") if isinstance(v, dict) else [f"{prefix}.{k}={v}"]
+
+
+@pytest.fixture(scope="module")
+def sequences(body):
+    rig = ring_rig(4, 3.5, 1.5, 160, 120, fov_deg=45, look_at=(0, 0, 0.9))
+    sil = make_synthetic(body, rig, motion="walk", frames=3, fps=25, seed=0, images=False)
+    markers = make_synthetic(body, rig, motion="walk", frames=3, fps=25, seed=0, masks=False,
+                             images=False, detections={"enabled": True, "labelled": True,
+                                                       "occlusion": False})
+    return sil, markers
+
+
+def test_every_tracker_config_has_a_python_preset():
+    assert sorted(p.stem for p in (CONF / "tracker").glob("*.yaml")) == sorted(PRESETS)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_config_tracker_equals_python_api_tracker(name, body, sequences):
+    seq = sequences[1] if name == "marker_apf" else sequences[0]
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        cfg = compose("track", overrides=[f"tracker={name}", *flat(FAST[name])])
+    from_config = instantiate(cfg.tracker, _partial_=True)(body=body, rig=seq.rig,
+                                                          rng=np.random.default_rng(5))
+    from_python = make_tracker(name, body=body, rig=seq.rig, rng=np.random.default_rng(5), **FAST[name])
+    assert type(from_config) is type(from_python) and from_config.name == from_python.name == name
+    for attr in ("settings", "weights", "iterations", "refine_iterations", "damping"):
+        assert getattr(from_config, attr, None) == getattr(from_python, attr, None), attr
+    results = [track_sequence(t, seq, seq.gt.chi[0], seq.gt.alpha) for t in (from_config, from_python)]
+    a, b = ([e.chi for e in r.estimates] for r in results)
+    np.testing.assert_array_equal(np.stack(a), np.stack(b))
+    assert not np.array_equal(a[1], a[0])          # it tracked
+
+
+def test_apf_prior_composes_apf_and_hybrid_composes_local_and_apf_prior():
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        apf = compose("track", overrides=["tracker=apf"]).tracker
+        prior = compose("track", overrides=["tracker=apf_prior"]).tracker
+        hybrid = compose("track", overrides=["tracker=hybrid"]).tracker
+        moved = compose("track", overrides=["tracker=hybrid", "tracker.local.iterations=4"]).tracker
+    assert prior._target_ == apf._target_ and (prior.particles, prior.layers) == (25, 10)
+    assert prior.energy.prior == 1.0
+    assert hybrid.local.iterations == 10 and hybrid.apf.particles == 25 and hybrid.apf.energy.prior == 1.0
+    assert moved.local.iterations == 4
