@@ -19,11 +19,12 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mocap.eval.metrics import joint_errors
+from mocap.eval.resume import clear_outputs, config_changes, restore_stored_config, run_state
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
-from mocap.trackers.run import frame_of, noisy_initial_pose, track_sequence
+from mocap.trackers.run import frame_of, noisy_initial_pose, search_budget, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -34,27 +35,20 @@ def write_json(path: Path, data: dict) -> None:
     tmp.replace(path)
 
 
-def search_budget(tracker_cfg: DictConfig) -> dict:
-    """Particles, layers and energy terms of a tracker's global search (the APF section of a
-    hybrid tracker; zeros for a tracker without one)."""
-    apf = tracker_cfg.get("apf") or tracker_cfg
-    energy = apf.get("energy") or {}
-    return {"particles": int(apf.get("particles", 0) or 0), "layers": int(apf.get("layers", 0) or 0),
-            "energy_terms": [k for k, v in energy.items() if v]}
-
-
-def is_complete(out_dir: Path, cfg: DictConfig) -> bool:
-    """A finished run: its metrics.json and (when recording) its recording.rrd exist."""
-    done = (out_dir / "metrics.json").is_file()
-    return done and (not cfg.recording.enabled or (out_dir / "recording.rrd").is_file())
-
-
 @hydra.main(version_base="1.3", config_path="../conf", config_name="track")
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
-    if cfg.skip_complete and is_complete(out_dir, cfg):
+    requested = OmegaConf.to_container(cfg, resolve=True)
+    state = run_state(out_dir, requested, bool(cfg.recording.enabled))
+    if cfg.skip_complete and state == "complete":
         print(f"skipping {out_dir}: already complete")
         return
+    if state == "changed" and cfg.get("resume_on_change", "rerun") == "fail":
+        restore_stored_config(out_dir)      # Hydra has just overwritten it with the new one
+        changed = ", ".join(config_changes(out_dir, requested))
+        raise RuntimeError(f"{out_dir} holds a run of another configuration (changed: {changed}); "
+                           "resume_on_change=rerun reruns it")
+    clear_outputs(out_dir)          # nothing of an earlier attempt may describe this run
     body = instantiate(cfg.body)
     seq = instantiate(cfg.data, _partial_=True)(body=body)
     if cfg.init.mode not in ("gt_noise", "tracker"):
@@ -106,7 +100,7 @@ def main(cfg: DictConfig) -> None:
     metrics = {
         "tracker": tracker.name, "seed": int(cfg.seed), "data": seq.name,
         **run_metrics(body, seq, result.estimates, result.seconds),
-        **search_budget(cfg.tracker),
+        **search_budget(tracker),
         "wall_seconds": wall, "tracking_seconds": tracking_seconds,
         "recording_seconds": recording_seconds[0],
         "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,
