@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from mocap import presets
 from mocap.body import load_body_model
 from mocap.body.kinematics import chain_transforms
 from mocap.body.lbs import lbs_apply
@@ -38,7 +38,7 @@ def main() -> None:
     p.add_argument("--repeats", type=int, default=50)
     p.add_argument("--body", default="paper22")
     args = p.parse_args()
-    cfg = yaml.safe_load((REPO / "conf" / "body" / f"{args.body}.yaml").read_text())
+    cfg = presets.read("body", args.body)
     print(f"posing {args.particles} particles, body {args.body}")
     print(f"{'dtype':8s} {'part':14s} {'median ms':>10s} {'best ms':>8s}")
     for dtype in ("float32", "float64"):

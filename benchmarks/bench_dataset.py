@@ -14,8 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import yaml
-
+from mocap import presets
 from mocap.body import load_body_model
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
@@ -31,7 +30,7 @@ def main() -> None:
     p.add_argument("--size", type=int, default=500)
     p.add_argument("--no-images", action="store_true")
     args = p.parse_args()
-    cfg = yaml.safe_load((REPO / "conf" / "body" / "paper22.yaml").read_text())
+    cfg = presets.read("body", "paper22")
     body = load_body_model(cfg["dofs"], name="paper22")
     rig = ring_rig(args.views, 4.0, 1.8, args.size, args.size, fov_deg=40, look_at=(0, 0, 0.9))
     t0 = time.perf_counter()

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from mocap import presets
 from mocap.body import load_body_model
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
@@ -49,7 +50,7 @@ def main() -> None:
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args()
-    dofs = yaml.safe_load((REPO / "conf/body/paper22.yaml").read_text())["dofs"]
+    dofs = presets.read("body", "paper22")["dofs"]
     body = load_body_model(dofs, name="paper22")
     rig = rig_from_config("humaneva")
     detections = {"enabled": True, "detection_rate": 0.9, "false_positive_rate": 0.1, "noise_px": 2.0,

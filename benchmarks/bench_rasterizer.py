@@ -21,8 +21,8 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import yaml
 
+from mocap import presets
 from mocap.body import load_body_model
 from mocap.render import distance_transform, get_rasterizer, rasterize_silhouettes
 from mocap.render.reference import rasterize_opencv, rasterize_reference
@@ -139,7 +139,7 @@ def main() -> None:
     ap.add_argument("--subset", type=int, default=24, help="views for the slow alternatives")
     args = ap.parse_args()
 
-    cfg = yaml.safe_load((REPO / "conf" / "body" / "paper22.yaml").read_text())
+    cfg = presets.read("body", "paper22")
     body = load_body_model(cfg["dofs"])
     rng = np.random.default_rng(0)
     chi = body.zero_pose(args.particles)

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import yaml
 
+from mocap import presets
 from mocap.body import load_body_model
 from mocap.cameras import project, rig_from_config
 from mocap.data.generate import make_synthetic
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=REPO / "outputs" / "marker_detector")
     args = p.parse_args(argv)
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    dofs = yaml.safe_load((REPO / "conf/body/paper22.yaml").read_text())["dofs"]
+    dofs = presets.read("body", "paper22")["dofs"]
     body = load_body_model(dofs, name="paper22")
     rig = rig_from_config(args.cameras)
     seq = make_synthetic(body, rig, motion=args.motion, frames=args.frames, fps=25, seed=args.seed,

@@ -15,9 +15,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
+from mocap import presets  # noqa: E402
 from mocap.body import BodyModel, load_body_model  # noqa: E402
 from mocap.recording.body_gallery import write_body_gallery  # noqa: E402
 
@@ -96,9 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--out", type=Path, default=REPO / "outputs" / "body")
     p.add_argument("--png", type=Path, default=None, help="also write the contact sheet here")
-    p.add_argument("--body", default="paper22", help="body config in conf/body")
+    p.add_argument("--body", default="paper22", help="body preset (mocap/presets/body)")
     args = p.parse_args(argv)
-    cfg = yaml.safe_load((REPO / "conf" / "body" / f"{args.body}.yaml").read_text())
+    cfg = presets.read("body", args.body)
     model = load_body_model(cfg["dofs"], cfg.get("model_file"))
     shapes, poses, labels = gallery(model)
     rrd = write_body_gallery(model, shapes, poses, labels, args.out / "body.rrd")

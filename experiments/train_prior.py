@@ -11,8 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import yaml
-
+from mocap import presets
 from mocap.body import load_body_model
 from mocap.energy.prior import default_prior_path
 from mocap.energy.train_prior import train_prior
@@ -27,7 +26,7 @@ def main() -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=None)
     args = p.parse_args()
-    cfg = yaml.safe_load((REPO / "conf" / "body" / f"{args.body}.yaml").read_text())
+    cfg = presets.read("body", args.body)
     body = load_body_model(cfg["dofs"], cfg.get("model_file"), name=cfg["name"])
     prior = train_prior(body, args.samples, args.seed)
     out = prior.save(args.out or default_prior_path(body.name))

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-import yaml
 
 from mocap.body import BodyModel, load_body_model
 
@@ -14,7 +13,10 @@ SHARED = REPO.parent / "shared"
 
 
 def body_config(name: str) -> dict:
-    return yaml.safe_load((REPO / "conf" / "body" / f"{name}.yaml").read_text())
+    """The body preset (DOF list, name, dtype) shipped with the package."""
+    from mocap import presets
+
+    return presets.read("body", name)
 
 
 @pytest.fixture(scope="session")

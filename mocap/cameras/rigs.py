@@ -2,7 +2,8 @@
 
 World frame: z up, metres. :func:`ring_rig` places cameras on a horizontal circle around the
 z axis, all looking at one point, with upright images (the camera y axis, image down, points
-down in the world). Presets live in ``conf/cameras/*.yaml`` as Hydra-instantiable configs.
+down in the world). Presets ship with the package (``mocap/presets/cameras/*.yaml``,
+:mod:`mocap.presets`); Hydra finds them as the ``cameras`` config group.
 """
 
 from __future__ import annotations
@@ -15,9 +16,6 @@ import yaml
 
 from mocap.cameras.calibration_io import _is_opencv_yaml, _read_text, load_calibration
 from mocap.cameras.camera import Camera, Rig
-
-#: conf/cameras of this repository (presets; present in a source checkout).
-PRESET_DIR = Path(__file__).resolve().parents[2] / "conf" / "cameras"
 
 
 def _vec3(v: Sequence[float] | np.ndarray, what: str) -> np.ndarray:
@@ -127,37 +125,33 @@ def ring_rig(
 
 def rig_from_config(config: Mapping | str | Path) -> Rig:
     """A rig from a Hydra config (mapping or DictConfig with ``_target_``), a preset name
-    (``"humaneva"``, ``"mpi08"``, ``"ring4_small"``: ``conf/cameras/<name>.yaml``), or the
+    (``"humaneva"``, ``"mpi08"``, ``"ring4_small"``: :mod:`mocap.presets`), or the
     path of a config YAML or of a calibration file (.json/.yaml/.yml/.xml/.toml, see
     :func:`mocap.cameras.calibration_io.load_calibration`).
 
     A config may also be ``{"calibration": <path>}`` (optionally with ``image_sizes``) to
     load a calibration file.
     """
-    from omegaconf import OmegaConf
+    from mocap import presets
 
     if isinstance(config, (str, Path)):
         path = Path(config)
         if path.suffix == "" and not path.exists():
-            path = PRESET_DIR / f"{config}.yaml"
-            if not path.exists():
-                available = sorted(p.stem for p in PRESET_DIR.glob("*.yaml"))
-                raise ValueError(f"no camera preset {str(config)!r}; available: {available}")
+            return rig_from_config(presets.read("cameras", str(config)))
         if path.suffix in (".yaml", ".yml"):
             text = _read_text(path)
             if not _is_opencv_yaml(text):
                 data = yaml.safe_load(text)
                 if isinstance(data, Mapping) and ("_target_" in data or "calibration" in data):
-                    return rig_from_config(OmegaConf.load(path))
+                    return rig_from_config(data)
         return load_calibration(path)
-    if "calibration" in config and "_target_" not in config:
-        sizes = config.get("image_sizes")
-        if sizes is not None and OmegaConf.is_config(sizes):
-            sizes = OmegaConf.to_container(sizes)
-        return load_calibration(str(config["calibration"]), image_sizes=sizes)
-    from hydra.utils import instantiate
+    if type(config).__module__.startswith("omegaconf"):        # a DictConfig from an entry point
+        from omegaconf import OmegaConf
 
-    rig = instantiate(config)
+        config = OmegaConf.to_container(config, resolve=True)
+    if "calibration" in config and "_target_" not in config:
+        return load_calibration(str(config["calibration"]), image_sizes=config.get("image_sizes"))
+    rig = presets.build(config)
     if not isinstance(rig, Rig):
         raise TypeError(f"camera config produced {type(rig).__name__}, expected Rig")
     return rig

@@ -19,7 +19,7 @@ from mocap.cameras import (
     save_calibration,
 )
 
-CONF_DIR = Path(__file__).resolve().parents[2] / "conf" / "cameras"
+CONF_DIR = Path(__file__).resolve().parents[2] / "mocap" / "presets" / "cameras"
 PRESETS = {"humaneva": (4, 640, 480), "mpi08": (8, 1004, 1004), "ring4_small": (4, 320, 240)}
 
 

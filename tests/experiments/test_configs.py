@@ -12,7 +12,11 @@ CONF = REPO / "conf"
 
 
 def options(group: str) -> list[str]:
-    return sorted(p.stem for p in (CONF / group).glob("*.yaml"))
+    """A group's options: conf/<group> and the package's presets (mocap/presets/<group>)."""
+    from mocap import presets
+
+    packaged = presets.names(group) if group in presets.KINDS else []
+    return sorted({p.stem for p in (CONF / group).glob("*.yaml")} | set(packaged))
 
 
 def test_every_group_has_options():

@@ -1,0 +1,63 @@
+"""The Python API: track a sequence with a named tracker, no Hydra and no repository needed.
+
+    import mocap
+    body = mocap.load_body("paper22")
+    seq = mocap.synthetic_sequence(body, cameras="ring4_small", motion="walk", frames=10)
+    result = mocap.track(seq, tracker="hybrid", body=body, seed=0)
+    poses = [e.chi for e in result.estimates]
+
+The trackers are those of ``conf/tracker`` (:data:`mocap.trackers.presets.PRESETS`); keyword
+arguments override their settings exactly as ``tracker.<key>=...`` does on the command line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mocap.body import BodyModel, load_body
+from mocap.data.sequence import Sequence
+from mocap.trackers.presets import make_tracker
+from mocap.trackers.run import TrackResult, frame_of, noisy_initial_pose, track_sequence
+
+
+def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: str = "walk",
+                       frames: int = 20, fps: float = 25.0, seed: int = 0, **options) -> Sequence:
+    """A synthetic sequence with ground truth (see :func:`mocap.data.generate.make_synthetic`);
+    cameras: a preset name (:mod:`mocap.presets`) or a calibration file."""
+    from mocap.data.sources import synthetic_sequence as make
+
+    return make(body=body, cameras=cameras, motion=motion, frames=frames, fps=fps, seed=seed, **options)
+
+
+def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None = None, seed: int = 0,
+          init: str | np.ndarray = "auto", alpha: np.ndarray | None = None, frames: int | None = None,
+          noise_deg: float = 3.0, noise_translation: float = 0.02, **settings) -> TrackResult:
+    """Track ``sequence`` with the tracker named ``tracker`` and return its estimates (one per
+    frame; frame 0 is the initial pose) and step times, as ``experiments/track.py`` does.
+
+    init: a pose (D,) (then ``alpha`` (K,) is the shape, default the mean); ``"gt_noise"``:
+    ground truth plus noise (``noise_deg`` on angles, ``noise_translation`` m); ``"tracker"``:
+    the tracker initialises itself from frame 0; ``"auto"``: gt_noise when the sequence has
+    ground truth, else tracker. The randomness is that of ``track.py`` with the same seed.
+    """
+    body = body if body is not None else load_body("paper22")
+    rng = np.random.default_rng(seed)
+    t = make_tracker(tracker, body=body, rig=sequence.rig, rng=np.random.default_rng([seed, 1]), **settings)
+    if isinstance(init, str) and init == "auto":
+        init = "gt_noise" if sequence.gt is not None else "tracker"
+    if isinstance(init, str):
+        if init == "gt_noise":
+            if sequence.gt is None:
+                raise ValueError(f"sequence {sequence.name!r} has no ground truth: use init='tracker'")
+            chi = noisy_initial_pose(body, sequence.gt.chi[0], rng, noise_deg, noise_translation)
+            alpha = sequence.gt.alpha
+        elif init == "tracker":
+            if not hasattr(t, "initial_estimate"):
+                raise ValueError(f"tracker {tracker!r} cannot initialise itself: give an initial pose")
+            chi, alpha = t.initial_estimate(frame_of(sequence, 0))
+        else:
+            raise ValueError(f"init must be 'auto', 'gt_noise', 'tracker' or a pose, got {init!r}")
+    else:
+        chi = np.asarray(init, np.float64)
+        alpha = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha)
+    return track_sequence(t, sequence, chi, alpha, frames)
