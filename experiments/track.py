@@ -14,6 +14,7 @@ from pathlib import Path
 import hydra
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
@@ -24,6 +25,7 @@ from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
+from mocap.threads import resolve_threads
 from mocap.trackers.run import frame_of, noisy_initial_pose, search_budget, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
@@ -33,6 +35,14 @@ def write_json(path: Path, data: dict) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(json.dumps(data, indent=2))
     tmp.replace(path)
+
+
+def parallel_jobs() -> int:
+    """Jobs this run shares the machine with: the launcher's n_jobs in a --multirun."""
+    hc = HydraConfig.get()
+    if hc.mode != RunMode.MULTIRUN:
+        return 1
+    return int(hc.launcher.get("n_jobs", 1) or 1)
 
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="track")
@@ -91,7 +101,8 @@ def main(cfg: DictConfig) -> None:
     try:
         with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
             result = track_sequence(tracker, seq, init, alpha, F,
-                                    on_frame=lambda f, e, s: record(f, e, s, bar))
+                                    on_frame=lambda f, e, s: record(f, e, s, bar),
+                                    threads=resolve_threads(cfg.get("threads", "auto"), parallel_jobs()))
     except BaseException:
         sink.finish(None, failed=True)
         raise

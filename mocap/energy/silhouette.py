@@ -29,8 +29,14 @@ import cv2
 import numpy as np
 
 from mocap.cameras import Rig, project
+from mocap.energy import fused
 from mocap.render import distance_transform, get_rasterizer
 from mocap.render.scaling import scaled_size
+
+# "auto": the compiled kernel of mocap/energy/fused.py when numba imports, else numpy;
+# "numba" / "numpy" force one (benchmarks compare the two in one process).
+DEFAULT_BACKEND = "auto"
+BACKENDS = ("auto", "numba", "numpy")
 
 
 @dataclass(frozen=True)
@@ -125,9 +131,15 @@ def chamfer_energy(model: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
 
 
 class SilhouetteEnergy:
-    """E_S for a shaped body seen by a rig at an internal resolution ``scale``."""
+    """E_S for a shaped body seen by a rig at an internal resolution ``scale``.
 
-    def __init__(self, shaped, rig: Rig, scale: float = 0.25):
+    backend: "numba" runs :mod:`mocap.energy.fused` (rasterise + chamfer in one compiled pass
+    per particle-view), "numpy" the scanline rasterizer and :func:`chamfer_energy` (same
+    energies up to summation order), "auto" / None the compiled one when numba imports
+    (``DEFAULT_BACKEND`` when None).
+    """
+
+    def __init__(self, shaped, rig: Rig, scale: float = 0.25, backend: str | None = None):
         self.shaped = shaped
         self.rig = rig
         self.scale = float(scale)
@@ -136,6 +148,15 @@ class SilhouetteEnergy:
         self.size = (h, w)
         faces = shaped.model.faces
         self.rasterizer = get_rasterizer(faces, shaped.model.num_vertices)
+        backend = DEFAULT_BACKEND if backend is None else backend
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        if backend == "numba" and not fused.HAVE_NUMBA:
+            raise RuntimeError("backend='numba' but numba is not installed")
+        use_numba = backend == "numba" or (backend == "auto" and fused.numba_available())
+        self.backend = "numba" if use_numba else "numpy"
+        self.fused = (fused.FusedSilhouetteEnergy(faces, shaped.model.num_vertices)
+                      if use_numba else None)
 
     def model_masks(self, vertices: np.ndarray) -> np.ndarray:
         """(P, V, 3) world vertices -> (P, C, h, w) bool silhouettes at internal resolution."""
@@ -145,7 +166,11 @@ class SilhouetteEnergy:
 
     def per_view(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
         """(P, D) -> (P, C) chamfer per view (NaN for ignored views)."""
-        return chamfer_energy(self.model_masks(self.shaped.pose(chi).vertices), target)
+        vertices = self.shaped.pose(chi).vertices
+        if self.fused is not None:
+            px, depth = project(self.internal, vertices, return_depth=True)
+            return self.fused(px, depth, target, near=0.05)
+        return chamfer_energy(self.model_masks(vertices), target)
 
     def __call__(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
         """(P, D) -> (P,) E_S, the mean over valid views."""

@@ -7,6 +7,7 @@ from collections.abc import Callable
 import numpy as np
 
 from mocap.body.model import ShapedBody
+from mocap.local import solver
 from mocap.local.jacobian import dof_frames
 from mocap.local.solver import PointLines, gauss_newton_step
 
@@ -15,16 +16,23 @@ Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]
 
 def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, iterations: int = 5,
                   tolerance: float = 1e-4, damping: float = 1e-4, min_correspondences: int = 12,
-                  free: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+                  free: np.ndarray | None = None,
+                  energy_tolerance: float = 0.0) -> tuple[np.ndarray, dict]:
     """Iterate: pose the body, find correspondences, solve the linearised system, update.
 
-    Stops after ``iterations`` or when the update is below ``tolerance`` (rad / m). An
-    iteration whose system cannot be solved skips its update and says why in the
-    diagnostics; the pose returned is always finite.
+    Stops after ``iterations``, when the update is below ``tolerance`` (rad / m), or when the
+    last step lowered the weighted RMS point-line distance (measured on fresh
+    correspondences) by less than ``energy_tolerance`` x its value: then this iteration's
+    update is still applied and the loop ends (``diag["stopped"]`` says why). An iteration
+    whose system cannot be solved skips its update and says why in the diagnostics; the
+    pose returned is always finite.
     """
+    if solver.LEGACY:
+        energy_tolerance = 0.0
     body = shaped.model
     chi = np.asarray(chi, np.float64)
-    diag: dict = {"iterations": 0, "skipped": [], "correspondences": [], "rms_m": []}
+    diag: dict = {"iterations": 0, "skipped": [], "correspondences": [], "rms_m": [],
+                  "stopped": "iterations"}
     for it in range(iterations):
         verts = shaped.pose(chi).vertices[0].astype(np.float64)
         corr, info = correspond(verts)
@@ -37,8 +45,14 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
         diag["rms_m"].append(step.rms_before)
         if not step.ok:
             diag["skipped"].append(f"iteration {it}: {step.reason}")
+            diag["stopped"] = "skipped"
             break
         chi = step.chi
         if np.abs(step.delta).max() < tolerance:
+            diag["stopped"] = "update below tolerance"
+            break
+        rms = diag["rms_m"]
+        if energy_tolerance > 0 and len(rms) > 1 and rms[-2] - rms[-1] < energy_tolerance * rms[-2]:
+            diag["stopped"] = "energy decrease below tolerance"
             break
     return chi, diag

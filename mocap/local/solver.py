@@ -17,7 +17,10 @@ import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.body.twists import hat, se3_exp, se3_log
-from mocap.local.jacobian import point_jacobians
+from mocap.local.jacobian import ancestors, point_jacobians
+
+# True: the code path before issue 15 (benchmarks/bench_speed.py --compare times both)
+LEGACY = False
 
 
 @dataclass(frozen=True)
@@ -51,13 +54,62 @@ def point_line_residuals(points: np.ndarray, d: np.ndarray, m: np.ndarray) -> np
 
 def linear_system(body: BodyModel, corr: PointLines, w: np.ndarray, q: np.ndarray,
                   free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Stacked residuals e0 (3N,), matrix A (3N, D) with e(delta) = e0 + A delta, weights (3N,)."""
+    """Stacked residuals e0 (3N,), matrix A (3N, D) with e(delta) = e0 + A delta, weights (3N,).
+
+    A = -[d]x J (J from :func:`point_jacobians`), assembled column block by column block
+    without the (N, 3, D) Jacobian: for the global twist -[d]x and [d]x [X]x = X d^T - (d.X) I;
+    for revolute DOF j (axis w_j through q_j, moving the point's limb)
+    -d x (w_j x (X - q_j)) = -w_j (d.(X - q_j)) + (X - q_j)(d.w_j).
+    """
+    if LEGACY:
+        return linear_system_reference(body, corr, w, q, free)
+    X = np.asarray(corr.points, np.float64)
+    d = np.asarray(corr.d, np.float64)
+    N, D = len(X), body.num_dofs
+    A = np.zeros((N, 3, D))
+    # dv block: -[d]x
+    A[:, 0, 1], A[:, 0, 2] = d[:, 2], -d[:, 1]
+    A[:, 1, 0], A[:, 1, 2] = -d[:, 2], d[:, 0]
+    A[:, 2, 0], A[:, 2, 1] = d[:, 1], -d[:, 0]
+    # dw block: X d^T - (d.X) I
+    dX = np.einsum("na,na->n", d, X)
+    A[:, :, 3:6] = X[:, :, None] * d[:, None, :]
+    for k in range(3):
+        A[:, k, 3 + k] -= dX
+    # revolute DOFs, zero where the DOF does not move the point's limb
+    moves = _moves(body)[corr.limbs]                                   # (N, Dj) 0 / 1
+    a = (dX[:, None] - d @ q.T) * moves                               # d.(X - q_j)
+    b = (d @ w.T) * moves                                             # d.w_j
+    for k in range(3):                                                # row k of each block
+        A[:, k, 6:] = (X[:, k, None] - q[None, :, k]) * b - w[None, :, k] * a
+    if free is not None:
+        A *= free[None, None, :]
+    e0 = point_line_residuals(X, d, corr.m)
+    return e0.reshape(-1), A.reshape(-1, D), np.repeat(corr.weights, 3)
+
+
+def linear_system_reference(body: BodyModel, corr: PointLines, w: np.ndarray, q: np.ndarray,
+                            free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`linear_system` from the full Jacobian (N, 3, D): slower, obviously right (tests)."""
     Jac = point_jacobians(body, corr.points, corr.limbs, w, q)        # (N, 3, D)
     A = -hat(corr.d) @ Jac                                             # (N, 3, D)
     if free is not None:
         A = A * free[None, None, :]
     e0 = point_line_residuals(corr.points, corr.d, corr.m)
     return e0.reshape(-1), A.reshape(-1, body.num_dofs), np.repeat(corr.weights, 3)
+
+
+_MOVES: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _moves(body: BodyModel) -> np.ndarray:
+    """(J, Dj) float 1 where revolute DOF j moves limb k (ancestors of k), once per tree."""
+    key = (id(body.parents), id(body.dof_joint))
+    cached = _MOVES.get(key)
+    if cached is None or cached[0] is not body.parents or cached[1] is not body.dof_joint:
+        table = ancestors(body.parents)[:, body.dof_joint].astype(np.float64)
+        cached = _MOVES[key] = (body.parents, body.dof_joint, table)
+    return cached[2]
 
 
 def apply_delta(body: BodyModel, chi: np.ndarray, delta: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ class LocalTrace:
     skipped: tuple[str, ...] = ()
     sift: Mapping | str | None = None
     views_without_contour: tuple[str, ...] = ()
+    stopped: str = ""
 
     @classmethod
     def from_optimizer(cls, opt: Mapping, sift: Mapping | str | None = None) -> LocalTrace:
@@ -43,7 +44,8 @@ class LocalTrace:
                    correspondences=tuple(int(c) for c in opt.get("correspondences", ())),
                    rms_m=tuple(float(r) for r in opt.get("rms_m", ())),
                    skipped=tuple(opt.get("skipped", ())), sift=sift,
-                   views_without_contour=tuple(last.get("views_without_contour", ())))
+                   views_without_contour=tuple(last.get("views_without_contour", ())),
+                   stopped=str(opt.get("stopped", "")))
 
 
 @dataclass(frozen=True)

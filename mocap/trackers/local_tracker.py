@@ -37,11 +37,13 @@ class LocalTracker(SilhouetteInitialisation):
                  damping: float = 1e-3, prediction_damping: float = 1.0,
                  contour: Mapping | None = None, sift: Mapping | None = None,
                  misalignment: Mapping | None = None, name: str = "local",
-                 rng: np.random.Generator | None = None, initialization: Mapping | None = None):
+                 rng: np.random.Generator | None = None, initialization: Mapping | None = None,
+                 energy_tolerance: float = 0.02):
         self.body, self.rig, self.name = body, rig, name
         self.init_rng = rng if rng is not None else np.random.default_rng(0)
         self.init_settings = InitSettings(**dict(initialization or {}))
         self.iterations, self.tolerance, self.damping = iterations, tolerance, damping
+        self.energy_tolerance = energy_tolerance
         self.prediction_damping = prediction_damping
         self.contour_cfg = dict(contour or {})
         self.sift_cfg = dict(sift or {"enabled": True})
@@ -81,7 +83,7 @@ class LocalTracker(SilhouetteInitialisation):
             return corr, info
 
         chi, opt = optimize_pose(self.shaped, start, correspond, self.iterations, self.tolerance,
-                                 self.damping, free=free)
+                                 self.damping, free=free, energy_tolerance=self.energy_tolerance)
         return chi, LocalTrace.from_optimizer(opt, sift_info)
 
     def step(self, frame: Frame) -> Estimate:

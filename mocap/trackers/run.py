@@ -10,6 +10,7 @@ import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
+from mocap.threads import thread_budget
 from mocap.trackers.base import Estimate, Frame, Tracker
 from mocap.trackers.diagnostics import StepDiagnostics
 
@@ -50,8 +51,19 @@ def frame_of(seq: Sequence, f: int) -> Frame:
 
 def track_sequence(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha: np.ndarray,
                    frames: int | None = None,
-                   on_frame: Callable[[int, Estimate, float], None] | None = None) -> TrackResult:
-    """Initialise on frame 0 (its estimate is the initial pose) and track frames 1..F-1."""
+                   on_frame: Callable[[int, Estimate, float], None] | None = None,
+                   threads: int | None = None) -> TrackResult:
+    """Initialise on frame 0 (its estimate is the initial pose) and track frames 1..F-1.
+
+    threads: thread budget of the numeric kernels while tracking (BLAS / OpenMP, numba,
+    OpenCV; :func:`mocap.threads.thread_budget`); None leaves the libraries' defaults.
+    """
+    with thread_budget(threads):
+        return _track(tracker, seq, init_chi, alpha, frames, on_frame)
+
+
+def _track(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha: np.ndarray,
+           frames: int | None, on_frame: Callable[[int, Estimate, float], None] | None) -> TrackResult:
     F = seq.num_frames if frames is None else min(frames, seq.num_frames)
     tracker.initialize(init_chi, alpha)
     estimates = [Estimate(chi=np.asarray(init_chi, np.float64), alpha=np.asarray(alpha),
