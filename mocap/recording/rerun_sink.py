@@ -38,6 +38,7 @@ from mocap.recording.sink import RunInfo
 from mocap.render import get_rasterizer
 from mocap.trackers.base import Estimate, Frame
 
+BODY_RGB = (235, 120, 40)     # the estimated mesh's base colour (orange), shaded per part
 DIFF_COLORS = {"observed_only": (40, 200, 60), "estimate_only": (190, 40, 200), "both": (200, 200, 200)}
 
 
@@ -58,6 +59,15 @@ def blueprint(view_names: list[str]) -> rrb.Blueprint:
         ),
         collapse_panels=True,
     )
+
+
+def body_colors(body: BodyModel) -> np.ndarray:
+    """(V, 3) uint8 vertex colours of the estimated mesh: one shade per body part, all in
+    the body colour range (red dominant, skin-like) so a screenshot test can find the body."""
+    rng = np.random.default_rng(7)
+    shade = rng.uniform(0.75, 1.0, size=(body.num_joints, 1))
+    palette = (shade * np.array(BODY_RGB)).astype(np.uint8)
+    return palette[body.part_labels]
 
 
 class RerunSink:
@@ -93,11 +103,10 @@ class RerunSink:
             rec.log(f"world/cams/{cam.name}", rr.Pinhole(
                 image_from_camera=cam.K, resolution=[cam.width, cam.height],
                 camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.3), static=True)
-        rng = np.random.default_rng(7)
-        palette = rng.integers(60, 230, size=(body.num_joints, 3)).astype(np.uint8)
-        rec.log("world/body/estimate", rr.Mesh3D(
-            vertex_positions=np.zeros((body.num_vertices, 3), np.float32),
-            triangle_indices=body.faces, vertex_colors=palette[body.part_labels]), static=True)
+        # Only what never changes is static: static data shadows temporal data of the same
+        # component in Rerun, so static vertex positions would hide the per-frame ones.
+        rec.log("world/body/estimate", rr.Mesh3D.from_fields(
+            triangle_indices=body.faces, vertex_colors=body_colors(body)), static=True)
         rec.log("run/config", rr.TextDocument(f"```yaml\n{info.config_yaml}\n```",
                                               media_type=rr.MediaType.MARKDOWN), static=True)
         rec.log("run/metadata", rr.TextDocument(json.dumps(info.metadata, indent=2)), static=True)
