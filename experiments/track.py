@@ -1,5 +1,5 @@
-"""Track a sequence with one tracker; write metrics.json and recording.rrd into the Hydra
-run directory.
+"""Track a sequence with one tracker; write motion.npz (mocap/export/motion.py), metrics.json
+and recording.rrd into the Hydra run directory.
 
     python experiments/track.py tracker=apf_prior data=walk_mpi08 seed=0
     python experiments/track.py --multirun tracker=apf,apf_prior seed=0,1,2
@@ -21,6 +21,7 @@ from tqdm import tqdm
 from mocap.eval.metrics import joint_errors
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
+from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
 from mocap.trackers.run import frame_of, noisy_initial_pose, track_sequence
@@ -77,8 +78,9 @@ def main(cfg: DictConfig) -> None:
     F = seq.num_frames if cfg.frames is None else min(int(cfg.frames), seq.num_frames)
     config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
     sink = make_sink(out_dir, **OmegaConf.to_container(rec_cfg))
-    sink.start(RunInfo(config_yaml, run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name,
-                                                 data=seq.name)), body, seq)
+    metadata = run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name, data=seq.name)
+    run_id = metadata.get("run_id", "")
+    sink.start(RunInfo(config_yaml, metadata), body, seq)
     shaped = body.shaped(alpha)
     recording_seconds = [0.0]
 
@@ -113,6 +115,9 @@ def main(cfg: DictConfig) -> None:
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     sink.finish(metrics)
+    write_motion(out_dir / "motion.npz", motion_arrays(
+        body, result.estimates, result.seconds, seq.fps, vertices=bool(cfg.get("motion", {}).get("vertices")),
+        info={"tracker": tracker.name, "data": seq.name, "seed": int(cfg.seed), "run_id": run_id}))
     write_json(out_dir / "metrics.json", metrics)
     accuracy = (f"MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
                 if "mpjpe_mm" in metrics else "")
