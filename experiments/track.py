@@ -18,7 +18,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
-from mocap.eval.metrics import joint_errors
+from mocap.eval.by_name import NameScorer
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
@@ -60,8 +60,8 @@ def main(cfg: DictConfig) -> None:
     seq = instantiate(cfg.data, _partial_=True)(body=body)
     if cfg.init.mode not in ("gt_noise", "tracker"):
         raise ValueError(f"init.mode must be 'gt_noise' or 'tracker', got {cfg.init.mode!r}")
-    if seq.gt is None and cfg.init.mode == "gt_noise":
-        raise ValueError(f"sequence {seq.name!r} has no ground truth: use init.mode=tracker")
+    if (seq.gt is None or seq.gt.chi is None) and cfg.init.mode == "gt_noise":
+        raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
     rng = np.random.default_rng(cfg.seed)
     # objects go in through a partial: Hydra would turn dataclass kwargs into configs
     rec_cfg = cfg.recording
@@ -82,15 +82,16 @@ def main(cfg: DictConfig) -> None:
     run_id = metadata.get("run_id", "")
     sink.start(RunInfo(config_yaml, metadata), body, seq)
     shaped = body.shaped(alpha)
+    scorer = NameScorer(body, seq.gt) if seq.gt is not None else None
     recording_seconds = [0.0]
 
     def record(f, est, step_seconds, bar):
         t = time.perf_counter()
         out = shaped.pose(est.chi)
         truth = err = None
-        if seq.gt is not None:
-            truth = seq.gt.joints[f]
-            err = float(joint_errors(out.joints, seq.gt.joints[f:f + 1], body.joint_names).mean())
+        if scorer is not None:
+            truth = scorer.truth_in_body_order(f)
+            err = scorer.metrics(shaped, est.chi, start=f)["mpjpe_mm"]
         sink.frame(frame_of(seq, f), est, out.joints[0], out.vertices[0], truth, err, step_seconds)
         recording_seconds[0] += time.perf_counter() - t
         bar.update(1)
