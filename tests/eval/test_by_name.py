@@ -144,3 +144,30 @@ def test_name_only_ground_truth_round_trips(body, seq, tmp_path):
     ests = _estimates(body, seq)
     assert run_metrics(body, back, ests, [0.0] * 4)["mpjpe_mm"] == pytest.approx(
         run_metrics(body, seq, ests, [0.0] * 4)["mpjpe_mm"], rel=1e-6)
+
+
+def test_converter_from_named_joint_files(body, seq, tmp_path):
+    """Per-frame CSVs in millimetres, a joint missing in one frame, into a sequence folder;
+    the loaded ground truth scores the true pose at 0 with the missing entry left out."""
+    from mocap.data.named_joints import add_ground_truth, read_named_joints
+
+    joints_dir = tmp_path / "joints"
+    joints_dir.mkdir()
+    names = list(body.joint_names)[::-1]                     # another order
+    for f in range(4):
+        rows = ["joint,x,y,z"]
+        for n in names:
+            x, y, z = 1e3 * seq.gt.joints[f, body.joint_index(n)]
+            rows.append(f"{n},,," if (f == 2 and n == "l_wrist") else f"{n},{x},{y},{z}")
+        (joints_dir / f"{f:04d}.csv").write_text("\n".join(rows) + "\n")
+    got_names, joints, valid = read_named_joints(joints_dir, scale=1e-3)
+    assert list(got_names) == names and joints.shape == (4, 19, 3)
+    assert (~valid).sum() == 1 and not valid[2, names.index("l_wrist")]
+    folder = write_sequence(dataclasses.replace(seq, images=None, gt=None), tmp_path / "s")
+    add_ground_truth(folder, got_names, joints, valid)
+    back = load_sequence(folder)
+    exact = [Estimate(c, seq.gt.alpha, {}) for c in seq.gt.chi]
+    m = run_metrics(body, back, exact, [0.0] * 4)
+    assert m["mpjpe_mm"] < 0.01 and m["per_joint_mm"]["l_wrist"] < 0.01
+    with pytest.raises(FileExistsError):
+        add_ground_truth(folder, got_names, joints, valid)
