@@ -25,8 +25,8 @@ def fake_run(root, name, overrides, **metrics):
 def test_sweep_rows_seeds_nan_and_no_ground_truth(tmp_path, body):
     for fp, errs in (("0.1", (10.0, 14.0)), ("0.3", (20.0, float("nan")))):
         for seed, e in enumerate(errs):
-            fake_run(tmp_path, f"fp{fp}_s{seed}", ["tracker=marker_apf", f"data.detections.false_positive_rate={fp}",
-                                                  f"seed={seed}"], mpjpe_mm=e)
+            over = ["tracker=marker_apf", f"data.detections.false_positive_rate={fp}", f"seed={seed}"]
+            fake_run(tmp_path, f"fp{fp}_s{seed}", over, mpjpe_mm=e)
     fake_run(tmp_path, "real_kp", ["tracker=marker_apf", "data=pose2sim_demo"], data="pose2sim_demo",
              reprojection_median_px=3.5, bone_length_std_mm=2.0, jitter_mm=4.0)
     # a run with neither ground truth nor detections: its motion.npz gives bone std and jitter
