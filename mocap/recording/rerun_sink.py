@@ -13,7 +13,10 @@ frame x layers + layer):
     views/<view>/silhouette_diff   Fig. 8 of Zhang et al.: green = observed only,
                                    purple = estimate only, grey = both
     views/<view>/detections        2D detections (marker runs)
+    views/<view>/landmarks         reprojected 3D landmarks (marker runs)
     plots/energy/<term>, plots/error/mpjpe_mm, plots/timing/<stage>, plots/layers/<value>
+    plots/motion/chi/<dof>, plots/decisions/..., log/decisions, run/shape
+                                   the motion and the tracker's decisions (motion_log.py)
     run/config, run/metadata, run/metrics   text documents
 
 The file is written to ``<path>.part`` and renamed when the run finishes; a failed run
@@ -34,6 +37,7 @@ from mocap.body.model import BodyModel
 from mocap.cameras import project
 from mocap.data.sequence import Sequence
 from mocap.energy.silhouette import downscale_masks
+from mocap.recording.motion_log import MotionLogger
 from mocap.recording.sink import RunInfo
 from mocap.render import get_rasterizer
 from mocap.trackers.base import Estimate, Frame
@@ -51,7 +55,10 @@ def blueprint(view_names: list[str]) -> rrb.Blueprint:
             rrb.Vertical(
                 rrb.TimeSeriesView(origin="plots/error", name="joint error (mm)"),
                 rrb.TimeSeriesView(origin="plots/energy", name="energy terms"),
-                rrb.Tabs(rrb.TimeSeriesView(origin="plots/layers", name="annealing layers"),
+                rrb.Tabs(rrb.TimeSeriesView(origin="plots/motion", name="pose (chi)"),
+                         rrb.TimeSeriesView(origin="plots/decisions", name="decisions"),
+                         rrb.TextLogView(origin="log", name="decision log"),
+                         rrb.TimeSeriesView(origin="plots/layers", name="annealing layers (anneal_step)"),
                          rrb.TimeSeriesView(origin="plots/timing", name="timings (s)"),
                          rrb.TextDocumentView(origin="run", name="run")),
             ),
@@ -92,6 +99,7 @@ class RerunSink:
         self.size = (h, w)
         self.rasterizer = get_rasterizer(body.faces, body.num_vertices)
         self.shaped = None
+        self.motion_log = MotionLogger(body.dof_names, self.rig_small)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         rec = rr.RecordingStream("mocap", recording_id=info.metadata.get("run_id"))
         rec.save(self.part, default_blueprint=blueprint(list(seq.rig.names)))
@@ -140,12 +148,14 @@ class RerunSink:
         layers = d.get("layers")
         if layers:
             L = len(layers["beta"])
+            rec.reset_time()            # layers on their own timeline, not stacked on the frame
             for m in range(L):
                 rec.set_time("anneal_step", sequence=f * L + m)
                 for key in ("energy_min", "beta", "survival", "ess", "spread"):
                     rec.log(f"plots/layers/{key}", rr.Scalars(layers[key][m]))
             rec.reset_time()
             rec.set_time("frame", sequence=f)
+        self.motion_log.frame(rec, f, estimate)
         if f % self.every:
             return
         rec.log("world/body/estimate", rr.Mesh3D.from_fields(vertex_positions=vertices))
@@ -157,6 +167,7 @@ class RerunSink:
         landmarks = d.get("landmarks")
         if landmarks is not None:
             rec.log("world/landmarks/estimate", rr.Points3D(landmarks, radii=0.02, colors=[255, 60, 60]))
+            self.motion_log.landmarks(rec, d.get("landmark_names"), landmarks)
         particles = d.get("particles")
         if self.particles and particles:
             shaped = self._shaped(estimate.alpha)

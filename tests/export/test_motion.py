@@ -9,17 +9,6 @@ from mocap.recording.reader import latest_at
 from mocap.trackers.base import Estimate
 
 
-@pytest.fixture(scope="module")
-def body():
-    from hydra import compose, initialize_config_dir
-    from hydra.utils import instantiate
-
-    from tests.export.conftest import REPO
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
-        cfg = compose("track")
-    return instantiate(cfg.body)
-
-
 def test_run_motion_matches_its_pose_and_recording(short_run, body):
     m = load_motion(short_run)
     assert m.num_frames == 4 and m.fps == 25 and m.info["tracker"] == "apf_prior"

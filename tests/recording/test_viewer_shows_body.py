@@ -17,7 +17,6 @@ import cv2
 import numpy as np
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
 RERUN = Path(sys.executable).with_name("rerun")
 VULKAN_ICDS = [Path("/usr/share/vulkan/icd.d"), Path("/etc/vulkan/icd.d")]
 
@@ -45,13 +44,8 @@ def body_pixels(rgb: np.ndarray) -> int:
 
 @pytest.mark.slow
 @needs_viewer
-def test_viewer_draws_the_body_mesh(tmp_path):
-    run = tmp_path / "run"
-    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={run}",
-                        "tracker=apf_prior", "frames=3", "data=walk_small", "tracker.particles=6",
-                        "tracker.layers=2"], capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr[-3000:]
-    rrd = run / "recording.rrd"
+def test_viewer_draws_the_body_mesh(short_run, tmp_path):
+    rrd = short_run / "recording.rrd"
     no_mesh = tmp_path / "no_mesh.rrd"
     f = subprocess.run([str(RERUN), "rrd", "filter", "--drop-entity", "/world/body/estimate", str(rrd),
                         "-o", str(no_mesh)], capture_output=True, text=True, timeout=120)
