@@ -2,9 +2,12 @@
 
     python experiments/ablate.py multirun/<sweep dir> [--out DIR] [--title TEXT]
 
-Groups runs by tracker, data, particles x layers and energy terms; reports mean ± std of the
-joint error over seeds, time per frame and energy evaluations per frame, and lists the runs
-that failed or are missing.
+Groups runs by tracker, data, the overrides that vary in the sweep (a parameter sweep makes
+one row per value), particles x layers and energy terms; reports the joint error over seeds
+(mean ± std; a single seed shows the value alone), PCP, time per frame and energy evaluations
+per frame. Runs without ground truth get their own columns (reprojection, bone-length
+stability, jitter; from motion.npz when metrics.json lacks them). Lists the runs that failed,
+are missing or have a NaN joint error (never averaged in).
 """
 
 from __future__ import annotations

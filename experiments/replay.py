@@ -1,5 +1,6 @@
 """Review a run: open its recording in the Rerun viewer where a display exists, otherwise
-print a headless summary (frames, entities, final metrics) read from the file itself.
+print a headless summary (frames, entities, final metrics) read from the file itself, and the
+run's motion.npz (frames, APF calls, misaligned limbs) when the run directory has one.
 
     python experiments/replay.py outputs/track/<run>            # a run directory
     python experiments/replay.py path/to/recording.rrd [--summary]
@@ -43,6 +44,15 @@ def main(argv: list[str] | None = None) -> int:
     if has_display and not args.summary and Path(viewer).exists():
         return subprocess.call([viewer, str(rrd)])
     print(summary_text(read_recording(rrd)))
+    motion = rrd.parent / "motion.npz"
+    if motion.is_file():
+        from mocap.export.motion import MotionFileError, load_motion
+        from mocap.export.motion import summary_text as motion_summary
+
+        try:
+            print(motion_summary(load_motion(motion)))
+        except MotionFileError as exc:
+            print(f"motion.npz unreadable: {exc}")
     return 0
 
 

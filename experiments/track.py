@@ -1,5 +1,5 @@
-"""Track a sequence with one tracker; write metrics.json and recording.rrd into the Hydra
-run directory.
+"""Track a sequence with one tracker; write motion.npz (mocap/export/motion.py), metrics.json
+and recording.rrd into the Hydra run directory.
 
     python experiments/track.py tracker=apf_prior data=walk_mpi08 seed=0
     python experiments/track.py --multirun tracker=apf,apf_prior seed=0,1,2
@@ -19,10 +19,11 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
-from mocap.eval.metrics import joint_errors
+from mocap.eval.by_name import NameScorer
 from mocap.eval.resume import clear_outputs, config_changes, restore_stored_config, run_state
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
+from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
 from mocap.threads import resolve_threads
@@ -63,8 +64,8 @@ def main(cfg: DictConfig) -> None:
     seq = instantiate(cfg.data, _partial_=True)(body=body)
     if cfg.init.mode not in ("gt_noise", "tracker"):
         raise ValueError(f"init.mode must be 'gt_noise' or 'tracker', got {cfg.init.mode!r}")
-    if seq.gt is None and cfg.init.mode == "gt_noise":
-        raise ValueError(f"sequence {seq.name!r} has no ground truth: use init.mode=tracker")
+    if (seq.gt is None or seq.gt.chi is None) and cfg.init.mode == "gt_noise":
+        raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
     rng = np.random.default_rng(cfg.seed)
     # objects go in through a partial: Hydra would turn dataclass kwargs into configs
     rec_cfg = cfg.recording
@@ -81,18 +82,20 @@ def main(cfg: DictConfig) -> None:
     F = seq.num_frames if cfg.frames is None else min(int(cfg.frames), seq.num_frames)
     config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
     sink = make_sink(out_dir, **OmegaConf.to_container(rec_cfg))
-    sink.start(RunInfo(config_yaml, run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name,
-                                                 data=seq.name)), body, seq)
+    metadata = run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name, data=seq.name)
+    run_id = metadata.get("run_id", "")
+    sink.start(RunInfo(config_yaml, metadata), body, seq)
     shaped = body.shaped(alpha)
+    scorer = NameScorer(body, seq.gt) if seq.gt is not None else None
     recording_seconds = [0.0]
 
     def record(f, est, step_seconds, bar):
         t = time.perf_counter()
         out = shaped.pose(est.chi)
         truth = err = None
-        if seq.gt is not None:
-            truth = seq.gt.joints[f]
-            err = float(joint_errors(out.joints, seq.gt.joints[f:f + 1], body.joint_names).mean())
+        if scorer is not None:
+            truth = scorer.truth_in_body_order(f)
+            err = scorer.metrics(shaped, est.chi, start=f)["mpjpe_mm"]
         sink.frame(frame_of(seq, f), est, out.joints[0], out.vertices[0], truth, err, step_seconds)
         recording_seconds[0] += time.perf_counter() - t
         bar.update(1)
@@ -118,6 +121,9 @@ def main(cfg: DictConfig) -> None:
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
     sink.finish(metrics)
+    write_motion(out_dir / "motion.npz", motion_arrays(
+        body, result.estimates, result.seconds, seq.fps, vertices=bool(cfg.get("motion", {}).get("vertices")),
+        info={"tracker": tracker.name, "data": seq.name, "seed": int(cfg.seed), "run_id": run_id}))
     write_json(out_dir / "metrics.json", metrics)
     accuracy = (f"MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
                 if "mpjpe_mm" in metrics else "")

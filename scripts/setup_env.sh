@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Installs everything mocap needs on a fresh Debian/Ubuntu machine: Python 3.11 with venv
 # (from the system's packages if missing), the EGL/Mesa libraries pyrender renders with
-# (headless), and a virtual environment in .venv holding uv and the locked dependencies
-# (requirements.lock). Safe to run again: each step is skipped when done.
+# (headless), xvfb + Mesa Vulkan for the headless Rerun viewer test, and a virtual
+# environment in .venv holding uv and the locked dependencies (requirements.lock). Safe to run again: each step is skipped when done.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -33,6 +33,16 @@ for p in $EGL_PKGS; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; do
 if [ -n "$missing" ]; then
   echo "[setup] installing system packages:$missing"
   apt_install $missing || echo "[setup] WARNING: could not install$missing: RGB rendering with pyrender will be unavailable" >&2
+fi
+
+# the real Rerun viewer, headless (tests/recording/test_viewer_shows_body.py): a virtual X
+# server and Mesa's Vulkan software rasteriser (the viewer's GL renderer fails on llvmpipe)
+VIEWER_PKGS="xvfb mesa-vulkan-drivers libvulkan1"
+missing=""
+for p in $VIEWER_PKGS; do dpkg -s "$p" >/dev/null 2>&1 || missing="$missing $p"; done
+if [ -n "$missing" ]; then
+  echo "[setup] installing system packages:$missing"
+  apt_install $missing || echo "[setup] WARNING: could not install$missing: the headless viewer test will be skipped" >&2
 fi
 
 export UV_PYTHON_DOWNLOADS=never

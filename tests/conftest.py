@@ -33,3 +33,19 @@ def body64() -> BodyModel:
 @pytest.fixture(scope="session")
 def body_full() -> BodyModel:
     return load_body_model(body_config("full")["dofs"], dtype="float64", name="full")
+
+
+@pytest.fixture(scope="session")
+def short_run(tmp_path_factory) -> Path:
+    """A short tracked run directory (apf_prior on walk_small, 4 frames, tiny budget,
+    recording on): motion.npz, metrics.json, recording.rrd. Used by the export and recording
+    tests."""
+    import subprocess
+    import sys
+
+    out = tmp_path_factory.mktemp("short_run")
+    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={out}",
+                        "tracker=apf_prior", "frames=4", "data=walk_small", "tracker.particles=6",
+                        "tracker.layers=2"], capture_output=True, text=True, cwd=REPO, timeout=900)
+    assert r.returncode == 0, r.stderr[-3000:]
+    return out

@@ -50,16 +50,27 @@ class Detections:
 @dataclass(frozen=True)
 class GroundTruth:
     """alpha: (K,) shape; chi: (F, D) poses; joints: (F, J, 3) and markers: (F, L, 3) world
-    metres; names of the DOFs, joints and markers; ``body``: the body configuration's name."""
+    metres; names of the DOFs, joints and markers; ``body``: the body configuration's name.
 
-    alpha: np.ndarray
-    chi: np.ndarray
+    Ground truth of a real dataset may be joints by name only: ``alpha``, ``chi`` and
+    ``markers`` None (empty names), ``joint_names`` in any order and any skeleton
+    (``skeleton``: a key of :data:`mocap.eval.by_name.SKELETONS`, "" for mocap's own names),
+    ``joint_valid`` (F, J) bool where a joint was measured (None: everywhere)."""
+
+    alpha: np.ndarray | None
+    chi: np.ndarray | None
     joints: np.ndarray
-    markers: np.ndarray
+    markers: np.ndarray | None
     dof_names: tuple[str, ...]
     joint_names: tuple[str, ...]
     marker_names: tuple[str, ...]
     body: str = ""
+    joint_valid: np.ndarray | None = None
+    skeleton: str = ""
+
+    @property
+    def num_frames(self) -> int:
+        return len(self.joints)
 
 
 @dataclass(frozen=True)
@@ -87,8 +98,8 @@ class Sequence:
             if arr is not None and (arr.shape[1] != C or arr.shape[2:] != tail):
                 raise ValueError(f"sequence {self.name!r}: {what} must be (F, {C}, "
                                  f"{', '.join(map(str, tail))}), got {arr.shape}")
-        if self.gt is not None and self.num_frames and len(self.gt.chi) != self.num_frames:
-            raise ValueError(f"sequence {self.name!r}: ground truth has {len(self.gt.chi)} "
+        if self.gt is not None and self.num_frames and self.gt.num_frames != self.num_frames:
+            raise ValueError(f"sequence {self.name!r}: ground truth has {self.gt.num_frames} "
                              f"frames, observations {self.num_frames}")
 
     @property
@@ -97,7 +108,7 @@ class Sequence:
             if arr is not None:
                 return len(arr)
         if self.gt is not None:
-            return len(self.gt.chi)
+            return self.gt.num_frames
         if self.detections is not None and len(self.detections):
             return int(self.detections.frame.max()) + 1
         return 0

@@ -11,7 +11,14 @@
                             "x", "y", "confidence"], "rows": [[...], ...]}; view indexes
                             "views", label indexes "labels" (-1: unlabelled)
       gt.npz               alpha (K,), chi (F, D), joints (F, J, 3), markers (F, L, 3),
-                           dof_names, joint_names, marker_names, body
+                           dof_names, joint_names, marker_names, body; or, for a real
+                           dataset, joints by name only: joint_names (J,), joints (F, J, 3),
+                           optional joint_valid (F, J) bool and skeleton (a key of
+                           mocap.eval.by_name.SKELETONS; "" = mocap's own joint names)
+
+Masks are foreground where the pixel is non-zero in a 0/1 image (maximum 1) and above 127
+otherwise, so 0/1, 0/255 and 1-bit PNGs load the same; a view whose masks are all empty is
+reported with a warning.
 
 ``write_sequence`` writes into a temporary folder beside the target and renames it into place
 when complete, so an interrupted run leaves no half-written sequence. ``load_sequence``
@@ -23,6 +30,7 @@ from __future__ import annotations
 import json
 import shutil
 import uuid
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -85,11 +93,7 @@ def write_sequence(seq: Sequence, folder: str | Path, overwrite: bool = False) -
             (tmp / "detections.json").write_text(json.dumps(
                 {"labels": list(d.labels), "columns": _COLUMNS, "rows": rows}))
         if seq.gt is not None:
-            g = seq.gt
-            np.savez_compressed(tmp / "gt.npz", alpha=g.alpha, chi=g.chi, joints=g.joints,
-                                markers=g.markers, dof_names=np.array(g.dof_names),
-                                joint_names=np.array(g.joint_names),
-                                marker_names=np.array(g.marker_names), body=np.array(g.body))
+            write_ground_truth(seq.gt, tmp / "gt.npz")
         w, h = seq.image_size
         (tmp / "sequence.json").write_text(json.dumps({
             "format": FORMAT, "name": seq.name, "fps": seq.fps, "frames": seq.num_frames,
@@ -140,7 +144,7 @@ def _read_images(folder: Path, kind: str, views: list[str], frames: int, w: int,
         if img.shape[:2] != (h, w):
             raise SequenceFormatError(f"{path}: image is {img.shape[1]}x{img.shape[0]}, "
                                       f"field 'image_size' of sequence.json says {w}x{h}")
-        out[f, c] = img[..., ::-1] if color else img > 127
+        out[f, c] = img[..., ::-1] if color else img > (0 if img.max() <= 1 else 127)
 
     _parallel(_read, [(f, c) for f in range(frames) for c in range(len(views))], threads)
     return out
@@ -168,6 +172,11 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4) 
                                       f"{cam.width}x{cam.height}, sequence.json field "
                                       f"'image_size' says {w}x{h}")
     masks = _read_images(folder, "masks", views, frames, w, h, threads) if content.get("masks") else None
+    if masks is not None and frames:
+        empty = [v for c, v in enumerate(views) if not masks[:, c].any()]
+        if empty:
+            warnings.warn(f"{folder / 'masks'}: the masks of view(s) {', '.join(empty)} are empty in "
+                          "every frame (wrong threshold or segmentation failed?)", stacklevel=2)
     imgs = (_read_images(folder, "images", views, frames, w, h, threads)
             if content.get("images") and images else None)
     det = _load_detections(folder / "detections.json", views) if content.get("detections") else None
@@ -192,19 +201,50 @@ def _load_detections(path: Path, views: list[str]) -> Detections:
         raise SequenceFormatError(f"{path}: {exc}") from exc
 
 
+def write_ground_truth(g: GroundTruth, path: Path) -> None:
+    """gt.npz of a ground truth (fields that are None are left out)."""
+    arrays = {"joints": g.joints, "joint_names": np.array(g.joint_names), "body": np.array(g.body),
+              "skeleton": np.array(g.skeleton)}
+    for key in ("alpha", "chi", "markers", "joint_valid"):
+        if getattr(g, key) is not None:
+            arrays[key] = getattr(g, key)
+    for key in ("dof_names", "marker_names"):
+        arrays[key] = np.array(getattr(g, key), dtype=str)
+    np.savez_compressed(path, **arrays)
+
+
 def _load_gt(path: Path, frames: int) -> GroundTruth:
     if not path.is_file():
         raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
     with np.load(path) as z:
-        for key in ("alpha", "chi", "joints", "markers", "dof_names", "joint_names", "marker_names"):
+        for key in ("joints", "joint_names"):
             if key not in z:
                 raise SequenceFormatError(f"{path}: missing field '{key}'")
-        gt = GroundTruth(alpha=z["alpha"], chi=z["chi"], joints=z["joints"], markers=z["markers"],
-                         dof_names=tuple(str(n) for n in z["dof_names"]),
-                         joint_names=tuple(str(n) for n in z["joint_names"]),
-                         marker_names=tuple(str(n) for n in z["marker_names"]),
-                         body=str(z["body"]) if "body" in z else "")
-    if len(gt.chi) != frames or len(gt.joints) != frames:
-        raise SequenceFormatError(f"{path}: field 'chi' has {len(gt.chi)} frames, sequence.json "
+        get = lambda k: z[k] if k in z else None  # noqa: E731
+        names = lambda k: tuple(str(n) for n in z[k]) if k in z else ()  # noqa: E731
+        gt = GroundTruth(alpha=get("alpha"), chi=get("chi"), joints=z["joints"], markers=get("markers"),
+                         dof_names=names("dof_names"), joint_names=names("joint_names"),
+                         marker_names=names("marker_names"), body=str(z["body"]) if "body" in z else "",
+                         joint_valid=None if get("joint_valid") is None else z["joint_valid"].astype(bool),
+                         skeleton=str(z["skeleton"]) if "skeleton" in z else "")
+    J = len(gt.joint_names)
+    if gt.joints.ndim != 3 or gt.joints.shape[1:] != (J, 3):
+        raise SequenceFormatError(f"{path}: field 'joints' must be (F, {J}, 3) for {J} joint_names, "
+                                  f"got {gt.joints.shape}")
+    if len(set(gt.joint_names)) != J:
+        raise SequenceFormatError(f"{path}: field 'joint_names' repeats a name")
+    if gt.joint_valid is not None and gt.joint_valid.shape != gt.joints.shape[:2]:
+        raise SequenceFormatError(f"{path}: field 'joint_valid' must be {gt.joints.shape[:2]}, "
+                                  f"got {gt.joint_valid.shape}")
+    for key in ("chi", "markers"):
+        arr = getattr(gt, key)
+        if arr is not None and len(arr) != len(gt.joints):
+            raise SequenceFormatError(f"{path}: field '{key}' has {len(arr)} frames, 'joints' "
+                                      f"{len(gt.joints)}")
+    if gt.chi is not None and gt.dof_names and gt.chi.shape[1:] != (len(gt.dof_names),):
+        raise SequenceFormatError(f"{path}: field 'chi' is {gt.chi.shape}, 'dof_names' has "
+                                  f"{len(gt.dof_names)} names")
+    if len(gt.joints) != frames:
+        raise SequenceFormatError(f"{path}: field 'joints' has {len(gt.joints)} frames, sequence.json "
                                   f"says {frames}")
     return gt

@@ -30,9 +30,39 @@ def expected_jobs(sweep_dir: Path) -> int | None:
     return int(np.prod(sizes)) if sizes else 1
 
 
+NO_GT_METRICS = (("reprojection_median_px", "reprojection (px)"),
+                 ("bone_length_std_mm", "bone-length std (mm)"),
+                 ("jitter_mm", "jitter (mm)"))
+
+
+def _overrides(run_dir: Path) -> list[str]:
+    path = run_dir / ".hydra" / "overrides.yaml"
+    if not path.is_file():
+        return []
+    return [str(o) for o in (yaml.safe_load(path.read_text()) or [])]
+
+
+def _motion_metrics(run_dir: Path) -> dict:
+    """Bone-length stability and jitter of a run's landmarks, from its motion.npz (runs with
+    neither ground truth nor detections report no accuracy of their own)."""
+    from mocap.eval.keypoint_metrics import bone_lengths, jitter_mm
+    from mocap.export.motion import MotionFileError, load_motion
+
+    try:
+        m = load_motion(run_dir / "motion.npz")
+    except MotionFileError:
+        return {}
+    X = m.landmarks.astype(np.float64)
+    bones = bone_lengths(X, m.landmark_names)
+    return {"bone_length_std_mm": float(1e3 * np.mean([np.nanstd(v) for v in bones.values()]))
+            if bones else float("nan"), "jitter_mm": jitter_mm(X)}
+
+
 def collect(sweep_dir: str | Path) -> Collected:
     """Every run under ``sweep_dir`` (a directory holding .hydra/); runs without a readable
-    metrics.json are reported as problems, never dropped silently."""
+    metrics.json, and runs whose joint error is NaN, are reported as problems, never dropped
+    silently or averaged. Runs without ground truth keep their own metrics (reprojection,
+    bone-length stability, jitter; the last two from motion.npz when metrics.json lacks them)."""
     sweep_dir = Path(sweep_dir)
     if not sweep_dir.is_dir():
         raise FileNotFoundError(f"sweep directory not found: {sweep_dir}")
@@ -48,12 +78,19 @@ def collect(sweep_dir: str | Path) -> Collected:
         try:
             data = json.loads(m.read_text())
             data["_dir"] = str(d)
-            for key in ("tracker", "mpjpe_mm", "sec_per_frame"):
+            for key in ("tracker", "sec_per_frame"):
                 if key not in data:
                     raise KeyError(key)
-            runs.append(data)
         except (json.JSONDecodeError, KeyError) as exc:
             problems.append((str(d), f"unreadable metrics.json ({exc!r})"))
+            continue
+        if "mpjpe_mm" in data and not np.isfinite(data["mpjpe_mm"]):
+            problems.append((str(d), f"joint error is {data['mpjpe_mm']} (not averaged)"))
+            continue
+        if "mpjpe_mm" not in data and "jitter_mm" not in data:
+            data.update(_motion_metrics(d))
+        data["_overrides"] = _overrides(d)
+        runs.append(data)
     expected = expected_jobs(sweep_dir)
     if expected is not None and expected > len(run_dirs):
         problems.append((str(sweep_dir), f"{expected - len(run_dirs)} of {expected} jobs have no "
@@ -61,44 +98,76 @@ def collect(sweep_dir: str | Path) -> Collected:
     return Collected(runs, problems)
 
 
-def _key(run: dict) -> tuple:
+IGNORED_OVERRIDES = ("seed", "hydra.", "skip_complete", "recording.")
+
+
+def varying_overrides(runs: list[dict]) -> list[str]:
+    """Override keys whose value differs between runs (seeds and bookkeeping excluded)."""
+    values: dict[str, set] = defaultdict(set)
+    for r in runs:
+        kv = dict(o.split("=", 1) for o in r.get("_overrides", []) if "=" in o)
+        for k in {k for rr in runs for o in rr.get("_overrides", []) if "=" in o
+                  for k in [o.split("=", 1)[0]]}:
+            values[k].add(kv.get(k))
+    return sorted(k for k, v in values.items() if len(v) > 1
+                  and not any(k == p or k.startswith(p) for p in IGNORED_OVERRIDES))
+
+
+def _key(run: dict, varying: list[str]) -> tuple:
     P, L = run.get("particles", 0), run.get("layers", 0)
     budget = f"{P}x{L}" if P else "-"
-    return (run["tracker"], run.get("data", ""), budget, "+".join(run.get("energy_terms", [])) or "-")
+    kv = dict(o.split("=", 1) for o in run.get("_overrides", []) if "=" in o)
+    extra = " ".join(f"{k}={kv.get(k, '-')}" for k in varying if k not in ("tracker", "data"))
+    return (run["tracker"], run.get("data", ""), extra or "-", budget,
+            "+".join(run.get("energy_terms", [])) or "-")
+
+
+def _mean_std(values: list[float]) -> tuple[float, float | None]:
+    a = np.asarray(values, float)
+    return float(a.mean()), (float(a.std(ddof=1)) if len(a) > 1 else None)
 
 
 def table_rows(runs: list[dict]) -> list[dict]:
+    """One row per tracker, data, varying overrides (a parameter sweep: one row per value),
+    budget and energy terms; means (± std over seeds when there are several)."""
+    varying = varying_overrides(runs)
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in runs:
-        groups[_key(r)].append(r)
+        groups[_key(r, varying)].append(r)
     rows = []
-    for (tracker, data, budget, terms), rs in sorted(groups.items()):
-        err = np.array([r["mpjpe_mm"] for r in rs])
-        row = {"tracker": tracker, "data": data, "particles_x_layers": budget, "energy_terms": terms,
-               "seeds": len(rs), "mpjpe_mean_mm": float(err.mean()),
-               "mpjpe_std_mm": float(err.std(ddof=1)) if len(rs) > 1 else 0.0,
+    for (tracker, data, overrides, budget, terms), rs in sorted(groups.items()):
+        row = {"tracker": tracker, "data": data, "overrides": overrides, "particles_x_layers": budget,
+               "energy_terms": terms, "seeds": len(rs),
                "sec_per_frame": float(np.mean([r["sec_per_frame"] for r in rs])),
                "energy_evals_per_frame": float(np.mean([r.get("energy_evals_per_frame", 0) for r in rs]))}
-        for extra in ("mmta", "mmtp_mm", "apf_calls_per_frame"):
+        if all("mpjpe_mm" in r for r in rs):
+            row["mpjpe_mean_mm"], row["mpjpe_std_mm"] = _mean_std([r["mpjpe_mm"] for r in rs])
+        for extra in ("pcp", "mmta", "mmtp_mm", "apf_calls_per_frame", *(k for k, _ in NO_GT_METRICS)):
             if all(extra in r for r in rs):
                 row[extra] = float(np.mean([r[extra] for r in rs]))
         rows.append(row)
     return rows
 
 
+def _pm(mean: float, std: float | None) -> str:
+    return f"{mean:.1f}" if std is None else f"{mean:.1f} ± {std:.1f}"
+
+
 def markdown(rows: list[dict], problems: list[tuple[str, str]], title: str) -> str:
-    extras = [(k, label) for k, label in (("apf_calls_per_frame", "APF calls / frame"),
-                                          ("mmta", "MMTA"), ("mmtp_mm", "MMTP (mm)"))
+    extras = [(k, label) for k, label in (("pcp", "PCP"), ("apf_calls_per_frame", "APF calls / frame"),
+                                          ("mmta", "MMTA"), ("mmtp_mm", "MMTP (mm)"), *NO_GT_METRICS)
               if any(k in r for r in rows)]
-    out = [f"# {title}", "",
-           "| tracker | data | particles x layers | energy terms | seeds | joint error (mm) "
-           "| s / frame | energy evals / frame |" + "".join(f" {label} |" for _, label in extras),
-           "|---|---|---|---|---|---|---|---|" + "---|" * len(extras)]
+    show_over = any(r.get("overrides", "-") != "-" for r in rows)
+    head = ["tracker", "data", *(["overrides"] if show_over else []), "particles x layers", "energy terms",
+            "seeds", "joint error (mm)", "s / frame", "energy evals / frame", *(label for _, label in extras)]
+    out = [f"# {title}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        cells = "".join(f" {r[k]:.2f} |" if k in r else " - |" for k, _ in extras)
-        out.append(f"| {r['tracker']} | {r['data']} | {r['particles_x_layers']} | {r['energy_terms']} | "
-                   f"{r['seeds']} | {r['mpjpe_mean_mm']:.1f} ± {r['mpjpe_std_mm']:.1f} | "
-                   f"{r['sec_per_frame']:.2f} | {r['energy_evals_per_frame']:.0f} |{cells}")
+        err = _pm(r["mpjpe_mean_mm"], r["mpjpe_std_mm"]) if "mpjpe_mean_mm" in r else "-"
+        cells = [r["tracker"], r["data"], *([r["overrides"]] if show_over else []), r["particles_x_layers"],
+                 r["energy_terms"], str(r["seeds"]), err, f"{r['sec_per_frame']:.2f}",
+                 f"{r['energy_evals_per_frame']:.0f}",
+                 *(f"{r[k]:.2f}" if k in r else "-" for k, _ in extras)]
+        out.append("| " + " | ".join(cells) + " |")
     if problems:
         out += ["", "## Runs that failed or are missing", ""]
         out += [f"- `{d}`: {why}" for d, why in problems]
@@ -121,8 +190,11 @@ def plot(rows: list[dict], path: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
     for r in rows:
-        ax.errorbar(r["sec_per_frame"], r["mpjpe_mean_mm"], yerr=r["mpjpe_std_mm"], fmt="o", capsize=3)
-        ax.annotate(f"{r['tracker']} {r['particles_x_layers']}\n{r['data']}",
+        if "mpjpe_mean_mm" not in r:
+            continue
+        ax.errorbar(r["sec_per_frame"], r["mpjpe_mean_mm"], yerr=r["mpjpe_std_mm"] or 0.0, fmt="o", capsize=3)
+        label = r["overrides"] if r.get("overrides", "-") != "-" else r["particles_x_layers"]
+        ax.annotate(f"{r['tracker']} {label}\n{r['data']}",
                     (r["sec_per_frame"], r["mpjpe_mean_mm"]), fontsize=7,
                     xytext=(4, 4), textcoords="offset points")
     ax.set_xscale("log")

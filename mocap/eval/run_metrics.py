@@ -7,7 +7,8 @@ import numpy as np
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
-from mocap.eval.metrics import joint_errors, mmta_mmtp, mpjpe_summary
+from mocap.eval.by_name import NameScorer
+from mocap.eval.metrics import mmta_mmtp
 from mocap.trackers.base import Estimate
 
 
@@ -15,7 +16,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
     """Accuracy against ground truth (when the sequence has it), speed and effort.
 
     estimates: one per frame, frame 0 being the initialisation; seconds: step time per frame.
-    Keys: mpjpe_mm, mpjpe_std_mm, per_joint_mm, per_frame_mm (with ground truth), mmta,
+    Keys: mpjpe_mm, mpjpe_std_mm, per_joint_mm, per_frame_mm, mpjpe_root_aligned_mm, pcp,
+    pcp_per_limb (with ground truth, joints matched by name: :mod:`mocap.eval.by_name`), mmta,
     mmtp_mm (when ground-truth markers match the default landmark set); without ground truth but
     with detections, the keypoint metrics of :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics`
     (reprojection error per view, bone-length stability, jitter); sec_per_frame,
@@ -28,9 +30,12 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
         chis = np.stack([e.chi for e in estimates])
         alpha = estimates[-1].alpha
         shaped = body.shaped(alpha)
-        out.update(mpjpe_summary(joint_errors(shaped.joints(chis), seq.gt.joints[:F], body.joint_names)))
+        scores = NameScorer(body, seq.gt).metrics(shaped, chis)     # joints matched by name
+        out.update({k: v for k, v in scores.items() if k not in ("scored", "unscored")})
+        if scores["unscored"]:
+            out["unscored_joints"] = scores["unscored"]
         landmarks = LandmarkSet(body)
-        if tuple(seq.gt.marker_names) == landmarks.names:
+        if seq.gt.markers is not None and tuple(seq.gt.marker_names) == landmarks.names:
             est_markers = landmarks.positions(shaped, chis)
             out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
     elif seq.detections is not None and len(seq.detections):

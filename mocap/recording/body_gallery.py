@@ -26,9 +26,9 @@ def write_body_gallery(model: BodyModel, shapes: np.ndarray, poses: np.ndarray,
     rec = rr.RecordingStream("mocap_body_model")
     rec.save(tmp)
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    rec.log("world/body", rr.Mesh3D(vertex_positions=np.zeros((model.num_vertices, 3), np.float32),
-                                    triangle_indices=model.faces, vertex_colors=_colors(model)),
-            static=True)
+    # positions only on the timeline: static positions would shadow them (Rerun)
+    rec.log("world/body", rr.Mesh3D.from_fields(triangle_indices=model.faces,
+                                                vertex_colors=_colors(model)), static=True)
     parents = model.parents
     for f, (alpha, chi, label) in enumerate(zip(shapes, poses, labels, strict=True)):
         out = model.shaped(alpha).pose(chi)

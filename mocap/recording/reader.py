@@ -6,6 +6,7 @@ import json
 from collections import defaultdict
 from pathlib import Path
 
+import numpy as np
 import rerun as rr
 
 
@@ -60,3 +61,30 @@ def summary_text(info: dict) -> str:
     else:
         lines.append("  no final metrics (the run did not finish)")
     return "\n".join(lines)
+
+
+def latest_at(path: str | Path, entity: str, component: str, frame: int,
+              timeline: str = "frame") -> np.ndarray | None:
+    """What a viewer shows for ``entity``'s ``component`` (e.g. ``"Mesh3D:vertex_positions"``)
+    at ``frame``, following Rerun's latest-at rule: static data of the component, when there is
+    any, shadows everything on the timeline; otherwise the last value logged at or before
+    ``frame``. Returns the value as an array (None when nothing applies)."""
+    entity = entity if entity.startswith("/") else "/" + entity
+    static, best, best_frame = None, None, None
+    for chunk in rr.chunk.RrdReader(str(path)).stream():
+        if chunk.entity_path != entity:
+            continue
+        rb = chunk.to_record_batch()
+        if component not in rb.schema.names:
+            continue
+        values = rb.column(component).to_pylist()
+        if chunk.is_static:
+            static = next((v for v in reversed(values) if v is not None), static)
+            continue
+        if timeline not in rb.schema.names:
+            continue
+        for f, v in zip(rb.column(timeline).to_pylist(), values, strict=True):
+            if v is not None and f is not None and f <= frame and (best_frame is None or f >= best_frame):
+                best, best_frame = v, f
+    value = static if static is not None else best
+    return None if value is None else np.asarray(value, dtype=np.float64)

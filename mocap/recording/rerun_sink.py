@@ -13,7 +13,10 @@ frame x layers + layer):
     views/<view>/silhouette_diff   Fig. 8 of Zhang et al.: green = observed only,
                                    purple = estimate only, grey = both
     views/<view>/detections        2D detections (marker runs)
+    views/<view>/landmarks         reprojected 3D landmarks (marker runs)
     plots/energy/<term>, plots/error/mpjpe_mm, plots/timing/<stage>, plots/layers/<value>
+    plots/motion/chi/<dof>, plots/decisions/..., log/decisions, run/shape
+                                   the motion and the tracker's decisions (motion_log.py)
     run/config, run/metadata, run/metrics   text documents
 
 The file is written to ``<path>.part`` and renamed when the run finishes; a failed run
@@ -34,11 +37,13 @@ from mocap.body.model import BodyModel
 from mocap.cameras import project
 from mocap.data.sequence import Sequence
 from mocap.energy.silhouette import downscale_masks
+from mocap.recording.motion_log import MotionLogger
 from mocap.recording.sink import RunInfo
 from mocap.render import get_rasterizer
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import flatten_scalars
 
+BODY_RGB = (235, 120, 40)     # the estimated mesh's base colour (orange), shaded per part
 DIFF_COLORS = {"observed_only": (40, 200, 60), "estimate_only": (190, 40, 200), "both": (200, 200, 200)}
 
 
@@ -51,7 +56,10 @@ def blueprint(view_names: list[str]) -> rrb.Blueprint:
             rrb.Vertical(
                 rrb.TimeSeriesView(origin="plots/error", name="joint error (mm)"),
                 rrb.TimeSeriesView(origin="plots/energy", name="energy terms"),
-                rrb.Tabs(rrb.TimeSeriesView(origin="plots/layers", name="annealing layers"),
+                rrb.Tabs(rrb.TimeSeriesView(origin="plots/motion", name="pose (chi)"),
+                         rrb.TimeSeriesView(origin="plots/decisions", name="decisions"),
+                         rrb.TextLogView(origin="log", name="decision log"),
+                         rrb.TimeSeriesView(origin="plots/layers", name="annealing layers (anneal_step)"),
                          rrb.TimeSeriesView(origin="plots/timing", name="timings (s)"),
                          rrb.TextDocumentView(origin="run", name="run")),
             ),
@@ -59,6 +67,15 @@ def blueprint(view_names: list[str]) -> rrb.Blueprint:
         ),
         collapse_panels=True,
     )
+
+
+def body_colors(body: BodyModel) -> np.ndarray:
+    """(V, 3) uint8 vertex colours of the estimated mesh: one shade per body part, all in
+    the body colour range (red dominant, skin-like) so a screenshot test can find the body."""
+    rng = np.random.default_rng(7)
+    shade = rng.uniform(0.75, 1.0, size=(body.num_joints, 1))
+    palette = (shade * np.array(BODY_RGB)).astype(np.uint8)
+    return palette[body.part_labels]
 
 
 class RerunSink:
@@ -83,6 +100,7 @@ class RerunSink:
         self.size = (h, w)
         self.rasterizer = get_rasterizer(body.faces, body.num_vertices)
         self.shaped = None
+        self.motion_log = MotionLogger(body.dof_names, self.rig_small)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         rec = rr.RecordingStream("mocap", recording_id=info.metadata.get("run_id"))
         rec.save(self.part, default_blueprint=blueprint(list(seq.rig.names)))
@@ -94,11 +112,10 @@ class RerunSink:
             rec.log(f"world/cams/{cam.name}", rr.Pinhole(
                 image_from_camera=cam.K, resolution=[cam.width, cam.height],
                 camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.3), static=True)
-        rng = np.random.default_rng(7)
-        palette = rng.integers(60, 230, size=(body.num_joints, 3)).astype(np.uint8)
-        rec.log("world/body/estimate", rr.Mesh3D(
-            vertex_positions=np.zeros((body.num_vertices, 3), np.float32),
-            triangle_indices=body.faces, vertex_colors=palette[body.part_labels]), static=True)
+        # Only what never changes is static: static data shadows temporal data of the same
+        # component in Rerun, so static vertex positions would hide the per-frame ones.
+        rec.log("world/body/estimate", rr.Mesh3D.from_fields(
+            triangle_indices=body.faces, vertex_colors=body_colors(body)), static=True)
         rec.log("run/config", rr.TextDocument(f"```yaml\n{info.config_yaml}\n```",
                                               media_type=rr.MediaType.MARKDOWN), static=True)
         rec.log("run/metadata", rr.TextDocument(json.dumps(info.metadata, indent=2)), static=True)
@@ -122,13 +139,12 @@ class RerunSink:
         d = estimate.diagnostics
         for key, value in d.scalars().items():      # energy/*, timing/*, misalignment/*, ...
             rec.log(f"plots/{key}", rr.Scalars(value))
-        if d.misalignment is not None and d.misalignment.limbs:
-            rec.log("events/decisions", rr.TextLog(f"misaligned: {', '.join(d.misalignment.limbs)}"
-                                                + (" -> APF" if d.misalignment.apf_called else "")))
         if error_mm is not None:
             rec.log("plots/error/mpjpe_mm", rr.Scalars(error_mm))
         rec.log("plots/timing/step", rr.Scalars(seconds))
         layers = d.anneal.layers if d.anneal is not None else ()
+        if layers:
+            rec.reset_time()            # layers on their own timeline, not stacked on the frame
         for m, layer in enumerate(layers):
             rec.set_time("anneal_step", sequence=f * len(layers) + m)
             for key, value in flatten_scalars("", layer).items():
@@ -136,6 +152,7 @@ class RerunSink:
         if layers:
             rec.reset_time()
             rec.set_time("frame", sequence=f)
+        self.motion_log.frame(rec, f, estimate)
         if f % self.every:
             return
         rec.log("world/body/estimate", rr.Mesh3D.from_fields(vertex_positions=vertices))
@@ -147,6 +164,7 @@ class RerunSink:
         if d.landmarks is not None:
             rec.log("world/landmarks/estimate", rr.Points3D(d.landmarks.points, radii=0.02,
                                                             colors=[255, 60, 60]))
+            self.motion_log.landmarks(rec, d.landmarks.names, d.landmarks.points)
         particles = d.particles
         if self.particles and particles:
             shaped = self._shaped(estimate.alpha)

@@ -64,5 +64,5 @@ def test_misaligned_limbs_and_layers_reach_the_recording(body, tmp_path):
     assert info["scalars"]["/plots/misalignment/limb_errors/l_elbow"] == {1: pytest.approx(0.4)}
     assert info["scalars"]["/plots/misalignment/apf_called"] == {1: 1.0}
     assert info["scalars"]["/plots/energy/total"] == {1: 2.0}
-    assert "/events/decisions" in info["entities"] and "/plots/layers/energy_mean" in info["entities"]
+    assert "/log/decisions" in info["entities"] and "/plots/layers/energy_mean" in info["entities"]
     assert np.isfinite(list(info["scalars"]["/plots/timing/step"].values())).all()

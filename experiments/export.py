@@ -1,0 +1,38 @@
+"""Export a run's motion (its motion.npz) to BVH, TRC, glTF (GLB) or C3D.
+
+    python experiments/export.py outputs/track/<run> --format bvh
+    python experiments/export.py outputs/track/<run> --format gltf --out walk.glb --overwrite
+
+Default output: <run dir>/motion.<bvh|trc|glb|c3d>. Axes and units: mocap/export/axes.py.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from mocap.export import FORMATS, export_run
+from mocap.export.motion import MotionFileError
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("run_dir", type=Path)
+    p.add_argument("--format", required=True, help=f"one of: {', '.join(FORMATS)}")
+    p.add_argument("--out", type=Path, default=None, help="output file (default: in the run directory)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    args = p.parse_args(argv)
+    t = time.perf_counter()
+    try:
+        out = export_run(args.run_dir, args.format, args.out, args.overwrite)
+    except (ValueError, FileNotFoundError, FileExistsError, MotionFileError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {out} ({time.perf_counter() - t:.2f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

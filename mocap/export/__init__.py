@@ -1,0 +1,65 @@
+"""The motion out: ``motion.npz`` of every run (:mod:`mocap.export.motion`) and exports of it
+to BVH, TRC, glTF/GLB and C3D (:func:`export_run`)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+FORMATS = {"bvh": ".bvh", "trc": ".trc", "gltf": ".glb", "c3d": ".c3d"}
+
+
+def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
+               overwrite: bool = False, body=None) -> Path:
+    """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
+    ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
+    (``.hydra/config.yaml``). Written to a temporary file and renamed; an existing output is
+    kept unless ``overwrite``."""
+    from mocap.export.motion import load_motion
+
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
+    run_dir = Path(run_dir)
+    if not (run_dir / "motion.npz").is_file():
+        raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")
+    out = Path(out) if out is not None else run_dir / f"motion{FORMATS[fmt]}"
+    if out.exists() and not overwrite:
+        raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
+    motion = load_motion(run_dir / "motion.npz")
+    tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
+    try:
+        if fmt == "bvh":
+            from mocap.export.bvh import write_bvh
+            write_bvh(motion, tmp)
+        elif fmt == "trc":
+            from mocap.export.trc import write_trc
+            write_trc(motion, tmp, file_name=out.name)
+        elif fmt == "c3d":
+            from mocap.export.c3d import write_c3d
+            write_c3d(motion, tmp)
+        else:
+            from mocap.export.gltf import write_gltf
+            write_gltf(motion, tmp, body if body is not None else run_body(run_dir, motion))
+        os.replace(tmp, out)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return out
+
+
+def run_body(run_dir: Path, motion=None):
+    """The body model a run used, from its ``.hydra/config.yaml``; checked against the
+    motion's model hash."""
+    from hydra.utils import instantiate
+    from omegaconf import OmegaConf
+
+    from mocap.export.motion import model_hash
+
+    cfg_path = Path(run_dir) / ".hydra" / "config.yaml"
+    if not cfg_path.is_file():
+        raise FileNotFoundError(f"{cfg_path}: not found; the glTF export needs the run's body model")
+    body = instantiate(OmegaConf.load(cfg_path).body)
+    want = (motion.info.get("model_hash") if motion is not None else None)
+    if want and model_hash(body) != want:
+        raise ValueError(f"{run_dir}: the body model in its config (hash {model_hash(body)}) is not the "
+                         f"one the run used ({want})")
+    return body

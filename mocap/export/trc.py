@@ -1,0 +1,53 @@
+"""TRC export: marker trajectories as OpenSim and Pose2Sim read them (tab-separated text,
+millimetres, Y up with Pose2Sim's axis permutation, ``axes.OPENSIM_FROM_WORLD``).
+
+    PathFileType  4  (X/Y/Z)  <file name>
+    DataRate  CameraRate  NumFrames  NumMarkers  Units  OrigDataRate  OrigDataStartFrame  OrigNumFrames
+    <fps>  <fps>  F  L  mm  <fps>  1  F
+    Frame#  Time  <marker 1>  <tab>  <tab>  <marker 2> ...
+    <tab>  <tab>  X1  Y1  Z1  X2  Y2  Z2 ...
+    <blank line>
+    1  0.000000  x  y  z ...        (frames numbered from 1)
+
+The markers are the run's landmarks (``landmarks``: the body's default landmark set) or, with
+``which="joints"``, its joints.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mocap.export.axes import OPENSIM_FROM_WORLD, points_to
+from mocap.export.motion import Motion
+
+
+def trc_text(motion: Motion, which: str = "landmarks", file_name: str = "motion.trc") -> str:
+    if which == "landmarks":
+        names, pts = motion.landmark_names, motion.landmarks
+    elif which == "joints":
+        names, pts = motion.joint_names, motion.joints
+    else:
+        raise ValueError(f"which must be 'landmarks' or 'joints', got {which!r}")
+    F, L = len(pts), len(names)
+    mm = 1e3 * points_to(OPENSIM_FROM_WORLD, pts)
+    fps = f"{motion.fps:.2f}"
+    lines = [f"PathFileType\t4\t(X/Y/Z)\t{file_name}",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+             f"{fps}\t{fps}\t{F}\t{L}\tmm\t{fps}\t1\t{F}",
+             "Frame#\tTime\t" + "\t\t\t".join(names) + "\t\t",
+             "\t\t" + "\t".join(f"X{i}\tY{i}\tZ{i}" for i in range(1, L + 1)),
+             ""]
+    for f in range(F):
+        vals = "\t".join("" if not np.isfinite(v) else f"{v:.4f}" for v in mm[f].ravel())
+        lines.append(f"{f + 1}\t{motion.timestamps[f]:.6f}\t{vals}")
+    return "\n".join(lines) + "\n"
+
+
+def write_trc(motion: Motion, path: str | Path, which: str = "landmarks",
+              file_name: str | None = None) -> Path:
+    """file_name: the name the header gives (default: the file's own)."""
+    path = Path(path)
+    path.write_text(trc_text(motion, which, file_name or path.name))
+    return path

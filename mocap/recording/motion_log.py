@@ -1,0 +1,61 @@
+"""What a reviewer needs beside the meshes: the motion itself and the tracker's decisions.
+
+Entities (timeline ``frame``):
+
+    plots/motion/chi/<dof>          every pose coordinate (root twist, joint angles in degrees)
+    plots/decisions/apf_called      1 when the hybrid called its APF on the frame
+    plots/decisions/misaligned      number of misaligned limbs
+    plots/decisions/limb_error/<limb>   the misalignment detector's error per limb
+    log/decisions                   one line per frame: "frame 12: APF on l_knee, l_ankle"
+    run/shape                       shape coefficients alpha (text, logged when they change)
+    views/<view>/landmarks          reprojected 3D landmarks (keypoint runs), next to the
+                                    detections
+
+Diagnostics are read through :func:`mocap.export.motion.decisions`, the one adapter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import rerun as rr
+
+from mocap.cameras import project
+from mocap.export.motion import decisions
+
+
+class MotionLogger:
+    def __init__(self, dof_names, rig_small=None):
+        self.dof_names = tuple(dof_names)
+        self.rig_small = rig_small
+        self.alpha = None
+
+    def frame(self, rec: rr.RecordingStream, f: int, estimate) -> None:
+        chi = np.asarray(estimate.chi, np.float64)
+        for d, name in enumerate(self.dof_names):
+            rec.log(f"plots/motion/chi/{name}", rr.Scalars(chi[d] if d < 6 else np.rad2deg(chi[d])))
+        alpha = np.asarray(estimate.alpha, np.float64)
+        if self.alpha is None or not np.array_equal(alpha, self.alpha):
+            self.alpha = alpha
+            rec.log("run/shape", rr.TextDocument("alpha = " + np.array2string(alpha, precision=3)))
+        dec = decisions(estimate.diagnostics)
+        if dec["apf_called"] is not None:
+            rec.log("plots/decisions/apf_called", rr.Scalars(dec["apf_called"]))
+        if dec["limb_errors"] or dec["misaligned"]:
+            rec.log("plots/decisions/misaligned", rr.Scalars(len(dec["misaligned"])))
+            for limb, err in dec["limb_errors"].items():
+                rec.log(f"plots/decisions/limb_error/{limb}", rr.Scalars(float(err)))
+            limbs = ", ".join(dec["misaligned"])
+            text = (f"frame {f}: APF on {limbs}" if limbs and dec["apf_called"]
+                    else f"frame {f}: misaligned {limbs}" if limbs else f"frame {f}: all limbs aligned")
+            rec.log("log/decisions", rr.TextLog(text, level="WARN" if dec["misaligned"] else "INFO"))
+        if dec["lost"]:
+            rec.log("log/decisions", rr.TextLog(f"frame {f}: tracker lost", level="ERROR"))
+
+    def landmarks(self, rec: rr.RecordingStream, names, landmarks) -> None:
+        """Reprojected landmarks (L, 3) in each view, at the views' logged resolution."""
+        if self.rig_small is None or landmarks is None:
+            return
+        px = project(self.rig_small, np.asarray(landmarks, np.float64))           # (C, L, 2)
+        for c, view in enumerate(self.rig_small.names):
+            rec.log(f"views/{view}/landmarks", rr.Points2D(px[c], radii=1.5, colors=[60, 220, 255],
+                                                            labels=list(names) if names else None))

@@ -1,0 +1,40 @@
+"""The recording holds the motion (chi per DOF), the hybrid's decisions, and the annealing
+layers on their own timeline only."""
+
+import numpy as np
+import rerun as rr
+
+from mocap.recording.motion_log import MotionLogger
+from mocap.recording.reader import read_recording
+from mocap.trackers.base import Estimate
+
+
+def test_decisions_and_motion_are_logged(tmp_path, body):
+    path = tmp_path / "r.rrd"
+    rec = rr.RecordingStream("t")
+    rec.save(path)
+    log = MotionLogger(body.dof_names)
+    chi = np.zeros(body.num_dofs)
+    chi[7] = 0.5
+    diags = [{"apf_called": 0, "misaligned_limbs": [], "limb_errors": {"l_knee": 0.1}},
+             {"apf_called": 1, "misaligned_limbs": ["l_knee"], "limb_errors": {"l_knee": 0.4}}]
+    for f, d in enumerate(diags):
+        rec.set_time("frame", sequence=f)
+        log.frame(rec, f, Estimate(chi * (f + 1), np.zeros(body.num_shape), d))
+    rec.flush()
+    rec.disconnect()
+    info = read_recording(path)
+    s = info["scalars"]
+    assert s["/plots/decisions/apf_called"] == {0: 0.0, 1: 1.0}
+    assert s["/plots/decisions/misaligned"] == {0: 0.0, 1: 1.0}
+    assert s["/plots/decisions/limb_error/l_knee"] == {0: 0.1, 1: 0.4}
+    dof = body.dof_names[7]
+    assert s[f"/plots/motion/chi/{dof}"][1] == np.rad2deg(1.0)
+    assert "/log/decisions" in info["entities"] and "/run/shape" in info["entities"]
+
+
+def test_annealing_layers_are_not_on_the_frame_timeline(short_run):
+    for chunk in rr.chunk.RrdReader(str(short_run / "recording.rrd")).stream():
+        if chunk.entity_path.startswith("/plots/layers"):
+            names = chunk.to_record_batch().schema.names
+            assert "anneal_step" in names and "frame" not in names
