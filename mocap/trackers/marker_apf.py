@@ -86,6 +86,19 @@ class MarkerAPFTracker:
         self.history: list[np.ndarray] = []
 
     # -- set-up ------------------------------------------------------------------------
+    def check_sequence(self, seq) -> None:
+        """Raise a ValueError, before any work starts, when ``seq`` cannot be tracked: no
+        detections at all, none in the first frame, or no detection label the landmark set
+        knows (experiments/track.py calls this right after building the tracker)."""
+        det = seq.detections
+        if det is None or not len(det):
+            raise ValueError(f"{self.name} needs 2D detections, but sequence {seq.name!r} has none: use "
+                             "data with detections (e.g. data=walk_markers_small, "
+                             "or a keypoint recording such as data=pose2sim_demo), or a silhouette tracker")
+        make_landmark_set(self.body, self.landmark_spec, det.labels)          # raises on unknown names
+        if not np.any(det.frame == 0):
+            raise ValueError(f"{self.name}: sequence {seq.name!r} has no detections in its first frame")
+
     def _landmarks_for(self, frame: Frame) -> LandmarkSet:
         if frame.detections is None:
             raise ValueError(f"{self.name}: frame {frame.index} has no detections; the marker "
