@@ -389,10 +389,11 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
                 kp = ppl[i]
                 keep = (kp[:, 2] > 0) & (kp[:, 2] >= min_confidence) & (label_of >= 0)
                 for k in np.flatnonzero(keep):
-                    rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2]))
-    arr = np.array(rows, np.float64).reshape(-1, 6)
+                    rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2], i))
+    arr = np.array(rows, np.float64).reshape(-1, 7)
     det = Detections(labels=labels, frame=arr[:, 0].astype(np.int64), view=arr[:, 1].astype(np.int64),
-                     label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5])
+                     label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5],
+                     person=arr[:, 6].astype(np.int64))
     meta = {"source": str(root), "calibration": str(calib), "layout": layout, "person": person,
             "first_frame": int(first), "frames": len(all_frames)}
     return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, meta=meta)

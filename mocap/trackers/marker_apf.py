@@ -24,6 +24,7 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.root_motion import predict_root
 from mocap.cameras import Rig, fundamental_matrices
+from mocap.data.openpose import capture_centre
 from mocap.energy.markers import (
     MarkerEnergy,
     MarkerLikelihood,
@@ -36,6 +37,7 @@ from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.marker_anneal import PartGroup, part_groups, run_annealing
+from mocap.trackers.marker_associate import associate_people, person_detections, skeletons_of
 from mocap.trackers.marker_init import (
     fit_shape,
     neutral_pose,
@@ -44,6 +46,7 @@ from mocap.trackers.marker_init import (
     triangulate_candidates,
 )
 from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+from mocap.trackers.marker_shape import length_model, skeleton_length_model
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,11 @@ class MarkerInit:
     """Self-initialisation: passes of annealed inverse kinematics to the triangulated
     landmarks (particles x layers each, first-pass diffusion ``std`` = (translation m,
     rotation rad, joints rad) shrinking by ``shrink`` per pass); ``length_sigma``: the
-    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape."""
+    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape;
+    ``outlier_sigma``: measured distances this many shape-model sigmas from their mean are
+    ignored by the fit; ``bound_sigma``: a fitted bone outside the model's mean +- this many
+    sigmas makes the start-up fall back to the mean shape (flagged); ``association_px``: the
+    skeleton epipolar threshold of the cross-view association (None: the gate)."""
 
     passes: int = 3
     particles: int = 300
@@ -60,6 +67,9 @@ class MarkerInit:
     shrink: float = 0.4
     length_sigma: float = 0.02
     fit_shape: bool = True
+    outlier_sigma: float = 4.0
+    bound_sigma: float = 3.0
+    association_px: float | None = None
 
 
 class MarkerAPFTracker:
@@ -84,6 +94,8 @@ class MarkerAPFTracker:
         self.landmarks: LandmarkSet | None = None
         self.shaped: ShapedBody | None = None
         self.history: list[np.ndarray] = []
+        self.start_up_flags: list[str] = []
+        self.start_up: dict = {}
 
     # -- set-up ------------------------------------------------------------------------
     def check_sequence(self, seq) -> None:
@@ -122,25 +134,91 @@ class MarkerAPFTracker:
         self.history = [chi]
 
     def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-        """(chi (D,), alpha (K,)) from one frame of labelled detections (Sec. 3.1)."""
+        """(chi (D,), alpha (K,)) from one frame of labelled detections (Sec. 3.1), robust to
+        other people in view and to implausible fits:
+
+        1. Sources of 3D landmarks: when the detections group keypoints into skeletons
+           (``Detections.person``), the people associated across views by whole-skeleton
+           epipolar consistency (:mod:`mocap.trackers.marker_associate`), the subject being
+           the one seen in the most views (then nearest the capture centre), triangulated
+           from that person's detections only; and always the per-landmark RANSAC
+           triangulation of every candidate (:func:`triangulate_candidates`).
+        2. Per source, the shape fitted to the rigid landmark distances, pairs more than
+           ``init.outlier_sigma`` standard deviations of the shape model from their mean
+           ignored (:mod:`mocap.trackers.marker_shape`); a fitted body with a bone outside
+           the model's +-``init.bound_sigma`` sigma falls back to the mean shape (flagged in
+           ``start_up_flags``). The mean shape is a hypothesis too.
+        3. Each hypothesis (source x shape) is posed by annealed IK and scored by the marker
+           likelihood of the frame (all candidates); the lowest energy wins.
+        """
         obs = self.observe(frame)
         lms = self.landmarks
-        gate = self.likelihood.gate_px
-        measured, views = triangulate_candidates(self.pinhole, obs, gate)
-        if np.isfinite(measured[:, 0]).sum() < 3:
+        self.start_up_flags: list[str] = []
+        sources = self._start_up_sources(frame, obs)
+        if not sources:
             raise ValueError(f"{self.name}: frame {frame.index}: fewer than 3 landmarks could be "
                              "triangulated (the initialisation needs labelled detections in >= 2 views)")
         rest0, basis = rest_point_basis(self.body, lms)
-        alpha = np.zeros(self.body.num_shape)
-        if self.init.fit_shape:
-            pairs = rigid_pairs(self.body, lms)
-            lengths = np.linalg.norm(measured[pairs[:, 0]] - measured[pairs[:, 1]], axis=1)
-            alpha = fit_shape(rest0, basis, pairs, lengths, self.init.length_sigma)
-        shaped = self.body.shaped(alpha)
-        rest = lms.rest_points(shaped).astype(np.float64)
-        chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
-        chi = self._fit_to_points(shaped, chi, measured)
+        pairs = rigid_pairs(self.body, lms)
+        pair_model = length_model(rest0, basis, pairs)
+        bones, bone_names = skeleton_length_model(self.body)
+        tried: list[tuple[float, np.ndarray, np.ndarray, str]] = []
+        for source, measured in sources:
+            shapes = [("mean shape", np.zeros(self.body.num_shape))]
+            if self.init.fit_shape:
+                lengths = pair_model.lengths(measured)
+                lengths[np.abs(pair_model.z_scores(lengths)) > self.init.outlier_sigma] = np.nan
+                alpha = fit_shape(rest0, basis, pairs, lengths, self.init.length_sigma)
+                _, joints = self.body.rest(alpha[None])
+                z = bones.z_scores(bones.lengths(np.asarray(joints[0], np.float64)))
+                if np.abs(z).max() > self.init.bound_sigma:
+                    worst = int(np.argmax(np.abs(z)))
+                    self.start_up_flags.append(
+                        f"start-up ({source}): fitted shape implausible ({bone_names[worst]} at "
+                        f"{z[worst]:+.1f} sigma), mean shape used instead")
+                else:
+                    shapes.insert(0, ("fitted shape", alpha))
+            for shape_name, alpha in shapes:
+                shaped = self.body.shaped(alpha)
+                rest = lms.rest_points(shaped).astype(np.float64)
+                chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
+                chi = self._fit_to_points(shaped, chi, measured)
+                energy = MarkerEnergy(lms, shaped, self.pinhole, obs, self.likelihood, F=self.F)
+                tried.append((float(energy(chi[None])[0]), chi, alpha, f"{source}, {shape_name}"))
+        e, chi, alpha, label = min(tried, key=lambda t: t[0])
+        self.start_up = {"chosen": label, "energies": {t[3]: t[0] for t in tried},
+                         "flags": list(self.start_up_flags)}
+        if "mean shape" in label and self.init.fit_shape and not self.start_up_flags:
+            self.start_up_flags.append(f"start-up: the mean shape fitted the detections better ({label})")
         return chi, alpha
+
+    def _start_up_sources(self, frame: Frame, obs: MarkerObservation) -> list[tuple[str, np.ndarray]]:
+        """[(name, measured landmarks (L, 3) world, NaN = unmeasured)] of the module's start-up."""
+        gate = self.likelihood.gate_px
+        out = []
+        det = frame.detections
+        sk = skeletons_of(det, self.landmarks.names, self.rig)
+        if sk is not None and sum(len(x) > 0 for x in sk.xy) >= 2:
+            people = associate_people(sk, self.F, self.init.association_px or gate)
+            if people:
+                centre = capture_centre(self.pinhole)
+                best = None
+                for person, _ in people:
+                    sub = arrange_detections(person_detections(det, sk, person), self.landmarks.names,
+                                             self.rig, self.min_confidence)
+                    X, _ = triangulate_candidates(self.pinhole, sub, gate)
+                    if np.isfinite(X[:, 0]).sum() < 3:
+                        continue
+                    views = sum(i is not None for i in person)
+                    key = (views, -float(np.linalg.norm(np.nanmedian(X, axis=0) - centre)))
+                    if best is None or key > best[0]:
+                        best = (key, X)
+                if best is not None:
+                    out.append((f"associated person ({len(people)} in view)", best[1]))
+        measured, _ = triangulate_candidates(self.pinhole, obs, gate)
+        if np.isfinite(measured[:, 0]).sum() >= 3:
+            out.append(("per-landmark triangulation", measured))
+        return out
 
     def _fit_to_points(self, shaped: ShapedBody, chi: np.ndarray, target: np.ndarray) -> np.ndarray:
         """Annealed inverse kinematics: landmarks of chi towards target (L, 3), NaN ignored;
