@@ -13,7 +13,7 @@ the motion. Written into metrics.json (``quality``) and printed as warnings.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -31,6 +31,16 @@ def lost_runs(lost: np.ndarray, min_length: int) -> list[tuple[int, int]]:
                 runs.append((start, f - 1))
             start = None
     return runs
+
+
+def _landmark_report(diagnostics) -> tuple[float | None, dict | None]:
+    """(reprojection px, {landmark: views}) of a step's diagnostics: a dict
+    (``reprojection_px``, ``views_per_landmark``) or a typed report with a ``landmarks``
+    attribute (``reprojection_px``, ``views``)."""
+    if isinstance(diagnostics, Mapping):
+        return diagnostics.get("reprojection_px"), diagnostics.get("views_per_landmark")
+    lm = getattr(diagnostics, "landmarks", None)
+    return getattr(lm, "reprojection_px", None), getattr(lm, "views", None)
 
 
 def quality_flags(body, alpha: np.ndarray, estimates: Sequence, image_diagonal: float,
@@ -51,8 +61,8 @@ def quality_flags(body, alpha: np.ndarray, estimates: Sequence, image_diagonal: 
                      f"{', '.join(bad)}; worst {names[worst]} {1e3 * lengths[worst]:.0f} mm "
                      f"(model {1e3 * model.mean[worst]:.0f} +- {1e3 * model.sigma[worst]:.0f} mm)")
     out = {"bone_length_z_max": float(np.abs(z).max()), "implausible_bones": bad}
-    diag = [e.diagnostics for e in estimates]
-    reproj = np.array([d.get("reprojection_px", np.nan) for d in diag], np.float64)
+    diag = [_landmark_report(e.diagnostics) for e in estimates]
+    reproj = np.array([np.nan if r is None else r for r, _ in diag], np.float64)
     if np.isfinite(reproj).any():
         limit = max(reprojection_px, reprojection_fraction * image_diagonal)
         med = float(np.nanmedian(reproj))
@@ -60,7 +70,7 @@ def quality_flags(body, alpha: np.ndarray, estimates: Sequence, image_diagonal: 
         if med > limit:
             flags.append(f"high reprojection error: median {med:.1f} px > {limit:.1f} px (wrong layout, "
                          "calibration or person?)")
-    views = [d.get("views_per_landmark") for d in diag]
+    views = [v for _, v in diag]
     if views and all(v is not None for v in views):
         lost = np.array([np.mean(np.asarray(list(v.values())) >= 2) < 1 / 3 for v in views])
         runs = lost_runs(lost, lost_frames)
