@@ -46,6 +46,7 @@ from mocap.trackers.marker_init import (
     triangulate_candidates,
 )
 from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+from mocap.trackers.marker_refine import Refinement, refine_pose
 from mocap.trackers.marker_shape import length_model, skeleton_length_model
 
 
@@ -79,7 +80,8 @@ class MarkerAPFTracker:
                  rng: np.random.Generator, landmarks: str | Sequence = "auto",
                  init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
                  min_confidence: float = 0.0, init: MarkerInit = MarkerInit(), crossover: bool = True,
-                 keep_particles: bool = False, name: str = "marker_apf"):
+                 keep_particles: bool = False, name: str = "marker_apf",
+                 refine: Refinement | None = None):
         self.body, self.rig, self.settings, self.likelihood = body, rig, settings, likelihood
         self.rng, self.name, self.keep_particles = rng, name, keep_particles
         self.landmark_spec = landmarks
@@ -96,6 +98,7 @@ class MarkerAPFTracker:
         self.history: list[np.ndarray] = []
         self.start_up_flags: list[str] = []
         self.start_up: dict = {}
+        self.refinement = refine or Refinement()
 
     # -- set-up ------------------------------------------------------------------------
     def check_sequence(self, seq) -> None:
@@ -272,6 +275,10 @@ class MarkerAPFTracker:
                                   self.settings, self.rng, keep_particles=self.keep_particles,
                                   previous=self.history[-1], root_point=self.shaped.rest_joints[0],
                                   groups=self.groups)
+        refined = {}
+        if self.refinement.iterations:          # Gauss-Newton on the reprojection error
+            chi, refined = refine_pose(energy.points, chi, energy.obs, self.pinhole, self.body.limits,
+                                       self.refinement, self.likelihood.gate_px)
         t2 = time.perf_counter()
         points = energy.points(chi[None]).astype(np.float64)
         terms = {k: float(v[0]) for k, v in energy.terms_of_points(points).items()}
@@ -291,7 +298,12 @@ class MarkerAPFTracker:
             "weak_landmarks": weak,
             "reprojection_px": float(np.nanmedian(reproj)) if np.isfinite(reproj).any() else float("nan"),
             "timings": {"observation": t1 - t0, "search": t2 - t1},
+            "refinement": refined,
         })
+
+
+def make_refinement(settings: Mapping | None) -> Refinement:
+    return Refinement(**dict(settings or {}))
 
 
 def make_init(settings: Mapping | None) -> MarkerInit:
