@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
+from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import fundamental_matrices, project, rig_from_config
 from mocap.data.crowd import crowd_detections
 from mocap.data.motion import generate_motion
@@ -34,7 +35,9 @@ def two_people(body, rig, offset=(0.7, 0.0, 0.0), frames=1, seed=0):
     the same, both fully seen in every view (1 px noise)."""
     chi = generate_motion(body, "walk", frames, fps=25, seed=3)
     other = chi.copy()
-    other[:, 3:6] += offset                                   # translation part of the root twist
+    T = se3_exp(chi[:, :6].astype(np.float64))
+    T[:, :3, 3] += offset                                     # the same motion, moved by offset
+    other[:, :6] = se3_log(T)
     alphas = np.zeros((2, body.num_shape))
     alphas[0, :3] = [-1.0, 0.5, 0.0]
     alphas[1, :3] = [2.0, -0.5, 0.5]
