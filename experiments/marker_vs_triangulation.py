@@ -33,10 +33,11 @@ import numpy as np
 import yaml
 
 from mocap.body import load_body_model
-from mocap.cameras import project, rig_from_config
+from mocap.cameras import Rig, project, rig_from_config
 from mocap.data.generate import make_synthetic
 from mocap.data.openpose import LAYOUTS
-from mocap.data.sequence import Detections
+from mocap.data.sequence import Detections, Sequence
+from mocap.data.sequence_io import load_sequence
 from mocap.energy.markers import arrange_detections
 from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.marker_init import triangulate_candidates
@@ -45,10 +46,13 @@ from mocap.trackers.run import frame_of, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
 LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
+HUMANEVA = ("pelvis", "thorax", "head", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow",
+            "r_wrist", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle")
 VARIANTS = {
     "base": {},
     "refine": {"refine": {"iterations": 3}},
     "refine_noconf": {"refine": {"iterations": 3, "use_confidence": False}},
+    "refine_offsets": {"refine": {"iterations": 3}, "offsets": {"frames": 10}},
 }
 
 
@@ -61,9 +65,15 @@ def detector(body, rig, seq, args, rng):
     truth = lms.from_transforms(G, rest)
     offsets = np.random.default_rng(1000).normal(0, args.offset_mm / 1e3, rest.shape)
     seen = lms.from_transforms(G, rest + offsets)
+    return detect_points(rig, seen, lms.names, args, rng), truth
+
+
+def detect_points(rig, seen, names, args, rng) -> Detections:
+    """Detections of points seen: (F, L, 3) labelled ``names`` (module docstring's model)."""
+    rest = seen[0]
     rows = []
     w, h = np.asarray(rig.sizes[0], np.float64)
-    for f in range(seq.num_frames):
+    for f in range(len(seen)):
         px = project(rig, seen[f])                                       # (C, L, 2)
         for c in range(len(rig)):
             hit = rng.random(len(rest)) < args.detection
@@ -81,9 +91,8 @@ def detector(body, rig, seq, args, rng):
             for i in np.flatnonzero(inside):
                 rows.append((f, c, lab[i], xy[i, 0], xy[i, 1], conf[i]))
     a = np.array(rows)
-    det = Detections(tuple(lms.names), a[:, 0].astype(np.int64), a[:, 1].astype(np.int64),
-                     a[:, 2].astype(np.int64), a[:, 3:5], a[:, 5])
-    return det, truth
+    return Detections(tuple(names), a[:, 0].astype(np.int64), a[:, 1].astype(np.int64),
+                      a[:, 2].astype(np.int64), a[:, 3:5], a[:, 5])
 
 
 def triangulation_error(trk, seq, truth) -> tuple[float, float]:
@@ -108,6 +117,9 @@ def main() -> None:
     p.add_argument("--false-positives", type=float, default=1.5)
     p.add_argument("--offset-mm", type=float, default=0.0)
     p.add_argument("--out", default="marker_vs_triangulation.json")
+    p.add_argument("--mismatch", default=None, help="folder of model-mismatch sequences (<motion>/ sequence "
+                   "folders with ground-truth joints): detect their 15 HumanEva joints instead")
+    p.add_argument("--views", type=int, default=4, help="with --mismatch: the first N views")
     args = p.parse_args()
     dofs = yaml.safe_load((REPO / "conf/body/paper22.yaml").read_text())["dofs"]
     body = load_body_model(dofs, name="paper22")
@@ -117,9 +129,19 @@ def main() -> None:
     rows = []
     for motion in args.motions:
         for seed in args.seeds:
-            seq = make_synthetic(body, rig, motion=motion, frames=args.frames, fps=25, seed=seed, masks=False)
-            det, truth = detector(body, rig, seq, args, np.random.default_rng([seed, 7]))
-            seq = replace(seq, detections=det)
+            if args.mismatch:
+                seq = load_sequence(Path(args.mismatch) / motion, images=False)
+                rig = Rig(tuple(seq.rig)[:args.views])
+                names = [n for n in HUMANEVA if n in seq.gt.joint_names]
+                truth = seq.gt.joints[:args.frames, [seq.gt.joint_names.index(n) for n in names]]
+                det = detect_points(rig, truth, names, args, np.random.default_rng([seed, 7]))
+                seq = Sequence(name=motion, rig=rig, fps=seq.fps, detections=det)
+            else:
+                seq = make_synthetic(body, rig, motion=motion, frames=args.frames, fps=25, seed=seed,
+                                     masks=False)
+                det, truth = detector(body, rig, seq, args, np.random.default_rng([seed, 7]))
+                names = LABELS
+                seq = replace(seq, detections=det)
             for variant in args.variants:
                 cfg = {**base_cfg, **{k: ({**base_cfg.get(k, {}), **v} if isinstance(v, dict) else v)
                                       for k, v in VARIANTS[variant].items()}}
@@ -129,9 +151,13 @@ def main() -> None:
                 res = track_sequence(trk, seq, chi0, alpha)
                 sec = (time.perf_counter() - t) / seq.num_frames
                 lms = trk.landmarks
-                idx = [LABELS.index(n) for n in lms.names]
+                idx = [names.index(n) for n in lms.names]
                 chis = np.stack([e.chi for e in res.estimates[1:]])
-                est = lms.positions(body.shaped(alpha), chis).astype(np.float64)
+                shaped = body.shaped(alpha)
+                rest = lms.rest_points(shaped).astype(np.float64)
+                if trk.offsets is not None:
+                    rest = rest + trk.offsets
+                est = lms.from_transforms(shaped.pose(chis).transforms.astype(np.float64), rest)
                 err = 1e3 * float(np.linalg.norm(est - truth[1:, idx], axis=-1).mean())
                 rows.append({"motion": motion, "seed": seed, "method": f"marker_apf:{variant}",
                              "error_mm": err, "sec_per_frame": sec})

@@ -244,7 +244,7 @@ class MarkerEnergy:
     def __init__(self, landmarks: LandmarkSet, shaped: ShapedBody, rig: Rig, obs: MarkerObservation,
                  settings: MarkerLikelihood, F: np.ndarray | None = None,
                  predicted: np.ndarray | None = None, weak: np.ndarray | None = None,
-                 compiled: bool | None = None):
+                 compiled: bool | None = None, rest_offsets: np.ndarray | None = None):
         self.landmarks, self.shaped, self.rig, self.obs, self.settings = landmarks, shaped, rig, obs, settings
         self.F = fundamental_matrices(rig) if F is None else F
         self.compiled = settings.compiled if compiled is None else compiled
@@ -261,15 +261,22 @@ class MarkerEnergy:
                         np.ascontiguousarray(shaped.axes, np.float64),
                         np.ascontiguousarray(shaped.rest_joints, np.float64),
                         np.asarray(landmarks.joint, np.int64),
-                        np.ascontiguousarray(landmarks.rest_points(shaped), np.float64))
+                        np.ascontiguousarray(self._rest_points(landmarks, shaped, rest_offsets), np.float64))
         else:
             dtype = landmarks.model.dtype                   # float32 bodies: float32 costs
             self.tables = tables.astype(dtype)
             self.obs_cast = MarkerObservation(obs.xy.astype(dtype), obs.valid, obs.confidence)
-        self.rest = landmarks.rest_points(shaped)
+        self.rest = self._rest_points(landmarks, shaped, rest_offsets).astype(landmarks.model.dtype)
         L = len(landmarks)
         self.predicted = predicted
         self.weak = np.zeros(L, bool) if weak is None or predicted is None else np.asarray(weak, bool)
+
+    @staticmethod
+    def _rest_points(landmarks: LandmarkSet, shaped: ShapedBody, offsets: np.ndarray | None) -> np.ndarray:
+        """Rest landmarks (L, 3), plus keypoint offsets in their joints' rest frames
+        (:mod:`mocap.trackers.marker_offsets`) when given."""
+        rest = np.asarray(landmarks.rest_points(shaped), np.float64)
+        return rest if offsets is None else rest + offsets
 
     def points(self, chi: np.ndarray) -> np.ndarray:
         """Landmarks (P, L, 3) of poses (P, D), in the body's dtype (forward kinematics as

@@ -60,11 +60,12 @@ def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
                         coherence_weight: float = 1.0, landmarks: str | Sequence = "auto",
                         init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
                         min_confidence: float = 0.0, init: Mapping | None = None, crossover: bool = True,
-                        keep_particles: bool = False, refine: Mapping | None = None):
+                        keep_particles: bool = False, refine: Mapping | None = None,
+                        offsets: Mapping | None = None):
     """The marker tracker of Canton-Ferrer et al. 2010 (``conf/tracker/marker_apf.yaml``).
     gate: the outlier threshold tau as a fraction of the image diagonal."""
     from mocap.energy.markers import MarkerLikelihood
-    from mocap.trackers.marker_apf import MarkerAPFTracker, make_init, make_refinement
+    from mocap.trackers.marker_apf import MarkerAPFTracker, make_init, make_offsets, make_refinement
 
     settings = APFSettings(particles=particles, layers=layers, survival=survival, diffusion=diffusion,
                            shrink=shrink, min_std_fraction=min_std_fraction, estimate=estimate)
@@ -76,7 +77,8 @@ def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     return MarkerAPFTracker(body, rig, settings, likelihood, rng, landmarks=landmarks,
                             init_std=tuple(init_std), prediction_damping=prediction_damping,
                             min_confidence=min_confidence, init=make_init(init), crossover=crossover,
-                            keep_particles=keep_particles, name=name, refine=make_refinement(refine))
+                            keep_particles=keep_particles, name=name, refine=make_refinement(refine),
+                            offsets=make_offsets(offsets))
 
 
 def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "local",

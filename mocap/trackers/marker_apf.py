@@ -46,6 +46,7 @@ from mocap.trackers.marker_init import (
     triangulate_candidates,
 )
 from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+from mocap.trackers.marker_offsets import OffsetLearning, local_residuals, robust_offsets
 from mocap.trackers.marker_refine import Refinement, refine_pose
 from mocap.trackers.marker_shape import length_model, skeleton_length_model
 
@@ -81,7 +82,7 @@ class MarkerAPFTracker:
                  init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
                  min_confidence: float = 0.0, init: MarkerInit = MarkerInit(), crossover: bool = True,
                  keep_particles: bool = False, name: str = "marker_apf",
-                 refine: Refinement | None = None):
+                 refine: Refinement | None = None, offsets: OffsetLearning | None = None):
         self.body, self.rig, self.settings, self.likelihood = body, rig, settings, likelihood
         self.rng, self.name, self.keep_particles = rng, name, keep_particles
         self.landmark_spec = landmarks
@@ -99,6 +100,9 @@ class MarkerAPFTracker:
         self.start_up_flags: list[str] = []
         self.start_up: dict = {}
         self.refinement = refine or Refinement()
+        self.offset_learning = offsets or OffsetLearning()
+        self.offsets: np.ndarray | None = None          # (L, 3) once learned
+        self._offset_samples: list[np.ndarray] = []
 
     # -- set-up ------------------------------------------------------------------------
     def check_sequence(self, seq) -> None:
@@ -261,8 +265,20 @@ class MarkerAPFTracker:
         n_views = views_near(obs, self.pinhole, pred_pts, self.likelihood.gate_px)
         weak = n_views < self.likelihood.min_views
         energy = MarkerEnergy(lms, self.shaped, self.pinhole, obs, self.likelihood, F=self.F,
-                              predicted=pred_pts, weak=weak)
+                              predicted=pred_pts, weak=weak, rest_offsets=self.offsets)
         return energy, n_views
+
+    def _learn_offsets(self, energy: MarkerEnergy, chi: np.ndarray) -> None:
+        """Collect one frame's keypoint residuals; set the offsets when enough are in."""
+        s = self.offset_learning
+        if not s.frames or self.offsets is not None:
+            return
+        X, _ = triangulate_candidates(self.pinhole, energy.obs, self.likelihood.gate_px)
+        G = self.shaped.pose(chi[None]).transforms[0].astype(np.float64)[self.landmarks.joint]
+        rest = self.landmarks.rest_points(self.shaped).astype(np.float64)
+        self._offset_samples.append(local_residuals(G, X, rest))
+        if len(self._offset_samples) >= s.frames:
+            self.offsets = robust_offsets(np.stack(self._offset_samples), s)
 
     def step(self, frame: Frame) -> Estimate:
         if self.shaped is None:
@@ -279,6 +295,7 @@ class MarkerAPFTracker:
         if self.refinement.iterations:          # Gauss-Newton on the reprojection error
             chi, refined = refine_pose(energy.points, chi, energy.obs, self.pinhole, self.body.limits,
                                        self.refinement, self.likelihood.gate_px)
+        self._learn_offsets(energy, chi)
         t2 = time.perf_counter()
         points = energy.points(chi[None]).astype(np.float64)
         terms = {k: float(v[0]) for k, v in energy.terms_of_points(points).items()}
@@ -304,6 +321,10 @@ class MarkerAPFTracker:
 
 def make_refinement(settings: Mapping | None) -> Refinement:
     return Refinement(**dict(settings or {}))
+
+
+def make_offsets(settings: Mapping | None) -> OffsetLearning:
+    return OffsetLearning(**dict(settings or {}))
 
 
 def make_init(settings: Mapping | None) -> MarkerInit:
