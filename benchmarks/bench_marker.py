@@ -1,13 +1,17 @@
-"""Benchmark: frames per second of ``marker_apf`` (conf/tracker/marker_apf.yaml) with 4 views.
+"""Benchmark: frames per second of ``marker_apf`` (conf/tracker/marker_apf.yaml).
 
     .venv/bin/python benchmarks/bench_marker.py [--frames 60] [--particles P --layers L]
+    .venv/bin/python benchmarks/bench_marker.py --keypoints --views 5     # 5 views x 25 keypoints
+    .venv/bin/python benchmarks/bench_marker.py --numpy                   # the numpy likelihood
 
 Tracks a synthetic walk seen by the HumanEva-like rig (4 views, 640x480; detection rate 0.9,
-false positives 0.1, 2 px noise, labelled markers) at the tracker's default particles x
-layers and prints the median and mean wall time per frame (step only), frames per second,
-the process CPU time per frame (what an idle core would take: on a shared machine the wall
-time also counts waiting for a core), the split between observation (arranging detections)
-and annealed search, and the cost of one likelihood evaluation of P particles and its parts.
+false positives 0.1, 2 px noise, labelled markers); with ``--keypoints`` the 25 BODY_25B
+keypoints of one person (2 px noise, no misses, :mod:`mocap.data.crowd`) seen by a ring of
+``--views`` cameras (1920x1080). Runs the tracker's default particles x layers and prints
+the median and mean wall time per frame (step only), frames per second, the process CPU
+time per frame (what an idle core would take: on a shared machine the wall time also counts
+waiting for a core), the split between observation (arranging detections) and annealed
+search, and the cost of one likelihood evaluation of P particles and its parts.
 The paper's claim: real time (>= 30 fps). Report the machine load with the numbers.
 """
 
@@ -16,6 +20,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,9 +28,11 @@ import yaml
 
 from mocap import presets
 from mocap.body import load_body_model
-from mocap.cameras import rig_from_config
+from mocap.cameras import rig_from_config, ring_rig
+from mocap.data.crowd import crowd_detections
 from mocap.data.generate import make_synthetic
-from mocap.energy.markers import pinhole_project, view_costs
+from mocap.data.openpose import LAYOUTS
+from mocap.energy.markers import MarkerEnergy, pinhole_project, view_costs
 from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.run import frame_of, track_sequence
 
@@ -49,20 +56,32 @@ def main() -> None:
     p.add_argument("--particles", type=int, default=None)
     p.add_argument("--layers", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--views", type=int, default=4)
+    p.add_argument("--keypoints", action="store_true", help="25 BODY_25B keypoints instead of 15+ markers")
+    p.add_argument("--numpy", action="store_true", help="the numpy likelihood instead of the compiled one")
     args = p.parse_args()
     dofs = presets.read("body", "paper22")["dofs"]
     body = load_body_model(dofs, name="paper22")
-    rig = rig_from_config("humaneva")
+    if args.keypoints or args.views != 4:
+        rig = ring_rig(args.views, 4.0, 1.5, 1920, 1080, fov_deg=60, look_at=(0, 0, 1.0))
+    else:
+        rig = rig_from_config("humaneva")
     detections = {"enabled": True, "detection_rate": 0.9, "false_positive_rate": 0.1, "noise_px": 2.0,
                   "occlusion": False}
     seq = make_synthetic(body, rig, motion=args.motion, frames=args.frames, fps=25, seed=args.seed,
-                         masks=False, detections=detections)
+                         masks=False, detections=None if args.keypoints else detections)
+    if args.keypoints:
+        labels = [n for n in LAYOUTS["BODY_25B"] if n is not None]
+        det, _ = crowd_detections(body, rig, seq.gt.chi[None], seq.gt.alpha[None], labels, noise_px=2.0,
+                                  seed=args.seed)
+        seq = replace(seq, detections=det)
     cfg = yaml.safe_load((REPO / "conf/tracker/marker_apf.yaml").read_text())
     cfg.pop("_target_")
     for k in ("particles", "layers"):
         if getattr(args, k) is not None:
             cfg[k] = getattr(args, k)
     trk = make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(args.seed), **cfg)
+    trk.likelihood = replace(trk.likelihood, compiled=not args.numpy)
     cpu0 = time.process_time()
     res = track_sequence(trk, seq, seq.gt.chi[0], seq.gt.alpha)
     cpu = (time.process_time() - cpu0) / (len(res.estimates) - 1)
@@ -70,7 +89,9 @@ def main() -> None:
     obs = np.array([e.diagnostics["timings"]["observation"] for e in res.estimates[2:]])
     search = np.array([e.diagnostics["timings"]["search"] for e in res.estimates[2:]])
     P, L = cfg["particles"], cfg["layers"]
-    print(f"marker_apf {P} particles x {L} layers, 4 views, {len(trk.landmarks)} landmarks, "
+    kind = "numpy" if args.numpy else "compiled"
+    print(f"marker_apf {P} particles x {L} layers, {len(rig)} views, {len(trk.landmarks)} landmarks, "
+          f"{kind} likelihood, "
           f"{len(step)} frames; load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     print(f"  per frame: median {1e3 * np.median(step):.1f} ms, mean {1e3 * step.mean():.1f} ms "
           f"-> {1 / np.median(step):.1f} fps (median), {1 / step.mean():.1f} fps (mean)")
@@ -87,9 +108,14 @@ def main() -> None:
     total = timeit(lambda: energy.landmark_costs(x), 50)
     fk = timeit(lambda: energy.points(x), 50)
     proj = timeit(lambda: pinhole_project(energy.rig, X), 50)
-    costs = timeit(lambda: view_costs(u, front, energy.obs_cast, energy.tables, gate), 50)
-    print(f"  one likelihood evaluation of {P} particles: {total:.2f} ms (forward kinematics {fk:.2f}, "
-          f"projection {proj:.2f}, gating + epipolar {costs:.2f})")
+    ref = MarkerEnergy(energy.landmarks, energy.shaped, energy.rig, energy.obs, energy.settings,
+                       F=energy.F, compiled=False)
+    costs = timeit(lambda: view_costs(u, front, ref.obs_cast, ref.tables, gate), 50)
+    Xc = np.ascontiguousarray(X, np.float64)
+    fused = timeit(lambda: energy.costs_of_points(Xc), 50) if energy.compiled else float("nan")
+    print(f"  one likelihood evaluation of {P} particles: {total:.2f} ms (forward kinematics {fk:.2f}; "
+          f"numpy: projection {proj:.2f}, gating + epipolar {costs:.2f}; compiled projection + gating "
+          f"+ epipolar {fused:.2f})")
 
 
 if __name__ == "__main__":

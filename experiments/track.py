@@ -8,6 +8,7 @@ and recording.rrd into the Hydra run directory.
 from __future__ import annotations
 
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mocap.eval.by_name import NameScorer
+from mocap.eval.quality import quality_flags
 from mocap.eval.resume import clear_outputs, config_changes, restore_stored_config, run_state
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
@@ -72,6 +74,8 @@ def main(cfg: DictConfig) -> None:
     tracker = instantiate(cfg.tracker, _partial_=True)(
         body=body, rig=seq.rig, rng=np.random.default_rng([cfg.seed, 1]),
         keep_particles=bool(rec_cfg.enabled and rec_cfg.particles))
+    if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work
+        tracker.check_sequence(seq)
     if cfg.init.mode == "tracker":
         if not hasattr(tracker, "initial_estimate"):
             raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
@@ -120,6 +124,11 @@ def main(cfg: DictConfig) -> None:
         "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,
         "config": OmegaConf.to_container(cfg, resolve=True),
     }
+    metrics["quality"] = quality_flags(body, alpha, result.estimates,
+                                       float(np.linalg.norm(seq.rig.sizes, axis=1).max()),
+                                       extra_flags=getattr(tracker, "start_up_flags", ()))
+    for flag in metrics["quality"]["flags"]:
+        print(f"WARNING: {flag}", file=sys.stderr)
     sink.finish(metrics)
     write_motion(out_dir / "motion.npz", motion_arrays(
         body, result.estimates, result.seconds, seq.fps, vertices=bool(cfg.get("motion", {}).get("vertices")),

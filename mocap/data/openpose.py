@@ -32,11 +32,28 @@ import numpy as np
 from mocap.cameras import Rig, load_calibration, project, triangulate
 from mocap.data.sequence import Detections, Sequence
 
-#: OpenPose keypoint index -> landmark name (see mocap/trackers/marker_landmarks.py)
+#: Keypoint layouts: keypoint index -> landmark name of the catalogue
+#: (mocap/trackers/marker_landmarks.py); None: a keypoint the tracker does not use.
+#:
+#: ============  ====  ========================================================================
+#: layout        K     detector / notes
+#: ============  ====  ========================================================================
+#: BODY_25B      25    OpenPose BODY_25B (Pose2Sim default): COCO order, then upper neck,
+#:                     head top, big toe, small toe, heel (left then right)
+#: BODY_25       25    OpenPose BODY_25: nose, neck (base), right arm, left arm, mid-hip, right
+#:                     leg, left leg, eyes, ears, feet. Same K as BODY_25B: told apart by
+#:                     :func:`layout_scores`
+#: COCO          18    OpenPose COCO-18 (BODY_25 without mid-hip and feet)
+#: COCO_17       17    MS-COCO keypoints (MMPose, RTMPose, YOLO-pose, Detectron2)
+#: HALPE_26      26    Halpe-26 (AlphaPose, RTMPose body7/halpe): COCO_17 + head top, neck
+#:                     (base), mid-hip, big toes, small toes, heels
+#: MEDIAPIPE_33  33    MediaPipe / BlazePose: face (eye corners, mouth: unused), arms, hands
+#:                     (pinky/index/thumb: unused), legs, heels, foot index (toe)
+#: ============  ====  ========================================================================
+_COCO_17 = ("nose", "l_eye", "r_eye", "l_ear", "r_ear", "l_shoulder", "r_shoulder", "l_elbow",
+            "r_elbow", "l_wrist", "r_wrist", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")
 LAYOUTS: dict[str, tuple[str | None, ...]] = {
-    "BODY_25B": ("nose", "l_eye", "r_eye", "l_ear", "r_ear", "l_shoulder", "r_shoulder", "l_elbow",
-                 "r_elbow", "l_wrist", "r_wrist", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle",
-                 "r_ankle", "neck", "head_top", "l_toe", "l_small_toe", "l_heel", "r_toe",
+    "BODY_25B": (*_COCO_17, "neck", "head_top", "l_toe", "l_small_toe", "l_heel", "r_toe",
                  "r_small_toe", "r_heel"),
     "BODY_25": ("nose", "neck_base", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow",
                 "l_wrist", "pelvis", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle",
@@ -45,7 +62,24 @@ LAYOUTS: dict[str, tuple[str | None, ...]] = {
     "COCO": ("nose", "neck_base", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow",
              "l_wrist", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle", "r_eye",
              "l_eye", "r_ear", "l_ear"),
+    "COCO_17": _COCO_17,
+    "HALPE_26": (*_COCO_17, "head_top", "neck_base", "pelvis", "l_toe", "r_toe", "l_small_toe",
+                 "r_small_toe", "l_heel", "r_heel"),
+    "MEDIAPIPE_33": ("nose", None, "l_eye", None, None, "r_eye", None, "l_ear", "r_ear", None, None,
+                     "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_wrist", "r_wrist",
+                     None, None, None, None, None, None, "l_hip", "r_hip", "l_knee", "r_knee",
+                     "l_ankle", "r_ankle", "l_heel", "r_heel", "l_toe", "r_toe"),
 }
+
+#: Pairs of landmarks joined by a short bone; a layout read with the wrong labels joins
+#: keypoints across the body (:func:`layout_scores`).
+LAYOUT_BONES: tuple[tuple[str, str], ...] = (
+    ("l_shoulder", "l_elbow"), ("l_elbow", "l_wrist"), ("r_shoulder", "r_elbow"), ("r_elbow", "r_wrist"),
+    ("l_hip", "l_knee"), ("l_knee", "l_ankle"), ("r_hip", "r_knee"), ("r_knee", "r_ankle"),
+    ("l_ankle", "l_heel"), ("r_ankle", "r_heel"), ("l_heel", "l_toe"), ("r_heel", "r_toe"),
+    ("nose", "l_eye"), ("nose", "r_eye"), ("l_eye", "l_ear"), ("r_eye", "r_ear"),
+    ("l_shoulder", "r_shoulder"), ("l_hip", "r_hip"), ("l_shoulder", "l_hip"), ("r_shoulder", "r_hip"),
+)
 
 
 class OpenPoseFormatError(ValueError):
@@ -90,7 +124,9 @@ def read_people(path: str | Path, num_keypoints: int) -> np.ndarray:
             raise OpenPoseFormatError(path, f"person {i}: {arr.size} values in 'pose_keypoints_2d', "
                                             f"expected {3 * num_keypoints} ({num_keypoints} x (x, y, c))")
         if not np.all(np.isfinite(arr)):
-            raise OpenPoseFormatError(path, f"person {i}: non-finite keypoint values")
+            bad = int(np.flatnonzero(~np.isfinite(arr))[0]) // 3
+            raise OpenPoseFormatError(path, f"frame {frame_number(path)}, person {i}: non-finite keypoint "
+                                            f"value (NaN or Inf) at keypoint {bad}")
         out[i] = arr.reshape(num_keypoints, 3)
     return out
 
@@ -108,16 +144,20 @@ def match_folders(camera_names: Seq[str], folders: Seq[Path], source: Path) -> l
     return [by_key[_key(n)] for n in camera_names]
 
 
-def read_keypoint_folders(rig: Rig, keypoints: Path, layout: str) -> list[dict[int, np.ndarray]]:
-    """Per camera, {frame: (N, K, 3) people}."""
-    K = len(LAYOUTS[layout])
+def read_keypoint_folders(rig: Rig, keypoints: Path, num_keypoints: int | None = None
+                          ) -> list[dict[int, np.ndarray]]:
+    """Per camera, {frame: (N, K, 3) people}. ``num_keypoints`` None: taken from the first
+    person found (every file must then agree). Raises :class:`OpenPoseFormatError` when a
+    camera has no folder or when frames present in one view are missing in another."""
     if not keypoints.is_dir():
         raise FileNotFoundError(f"keypoint folder not found: {keypoints}")
     folders = sorted(p for p in keypoints.iterdir() if p.is_dir())
     if not folders:
         raise OpenPoseFormatError(keypoints, "no per-camera keypoint folders inside")
+    K = num_keypoints or _first_keypoint_count(folders)
     out = []
-    for folder in match_folders(rig.names, folders, keypoints):
+    matched = match_folders(rig.names, folders, keypoints)
+    for folder in matched:
         files = sorted(folder.glob("*.json"))
         if not files:
             raise OpenPoseFormatError(folder, "no .json files")
@@ -128,7 +168,100 @@ def read_keypoint_folders(rig: Rig, keypoints: Path, layout: str) -> list[dict[i
                 raise OpenPoseFormatError(f, f"frame {n} appears twice in {folder.name}")
             frames[n] = read_people(f, K)
         out.append(frames)
+    every = set().union(*(p.keys() for p in out))
+    for folder, frames in zip(matched, out, strict=True):
+        missing = sorted(every - frames.keys())
+        if missing:
+            shown = ", ".join(map(str, missing[:10])) + (" ..." if len(missing) > 10 else "")
+            raise OpenPoseFormatError(folder, f"{len(missing)} frame(s) present in other views are "
+                                              f"missing here: {shown} (OpenPose writes a file for every "
+                                              "frame, empty 'people' when nobody is found)")
     return out
+
+
+def _first_keypoint_count(folders: Seq[Path]) -> int:
+    for folder in folders:
+        for f in sorted(folder.glob("*.json")):
+            try:
+                people = json.loads(f.read_text()).get("people") or []
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+                continue            # read_people names the file
+            for person in people:
+                kp = person.get("pose_keypoints_2d") if isinstance(person, dict) else None
+                if isinstance(kp, list) and len(kp) % 3 == 0 and kp:
+                    return len(kp) // 3
+    raise OpenPoseFormatError(folders[0].parent, "no person with 'pose_keypoints_2d' in any file")
+
+
+def layout_scores(people: Seq[dict[int, np.ndarray]], layouts: Seq[str],
+                  max_people: int = 400) -> dict[str, float]:
+    """How well each layout's labels fit the keypoints: the median, over people seen in the
+    files (up to ``max_people``), of the mean 2D length of the layout's short bones
+    (:data:`LAYOUT_BONES`) divided by the diagonal of the person's bounding box. Read with
+    the right labels a bone joins neighbouring keypoints (about 0.1-0.2); with the wrong
+    labels many join distant parts (e.g. BODY_25 read as BODY_25B puts the ankles at the
+    eyes). Independent of the view and of the person's orientation. Lower is better."""
+    samples = []
+    for per_view in people:
+        for arr in per_view.values():
+            samples.extend(arr)
+            if len(samples) >= max_people:
+                break
+    scores = {}
+    for name in layouts:
+        names = LAYOUTS[name]
+        idx = {n: i for i, n in enumerate(names) if n is not None}
+        bones = np.array([(idx[a], idx[b]) for a, b in LAYOUT_BONES if a in idx and b in idx])
+        vals = []
+        for kp in samples:
+            if kp.shape[0] != len(names) or not len(bones):
+                continue
+            ok = kp[:, 2] > 0
+            use = ok[bones[:, 0]] & ok[bones[:, 1]]
+            if ok.sum() < 5 or use.sum() < 4:
+                continue
+            diag = np.linalg.norm(np.ptp(kp[ok, :2], axis=0))
+            if diag <= 0:
+                continue
+            b = bones[use]
+            vals.append(np.linalg.norm(kp[b[:, 0], :2] - kp[b[:, 1], :2], axis=1).mean() / diag)
+        scores[name] = float(np.median(vals)) if vals else float("nan")
+    return scores
+
+
+def resolve_layout(people: Seq[dict[int, np.ndarray]], layout: str, source: Path,
+                   margin: float = 1.5) -> str:
+    """The layout to read ``people`` with. ``layout="auto"``: among the layouts with the
+    files' keypoint count, the one with the best :func:`layout_scores`. A named layout is
+    checked: its keypoint count must match, and if another layout of that count fits
+    ``margin`` times better the files were most likely written in that one, and an
+    :class:`OpenPoseFormatError` says so."""
+    K = next((a.shape[1] for p in people for a in p.values() if len(a)), None)
+    if K is None:
+        if layout == "auto":
+            raise OpenPoseFormatError(source, "no person in any keypoint file: cannot detect the layout")
+        return layout
+    same = [n for n, names in LAYOUTS.items() if len(names) == K]
+    if layout == "auto":
+        if not same:
+            raise OpenPoseFormatError(source, f"{K} keypoints per person match no known layout "
+                                              f"({', '.join(f'{n}: {len(v)}' for n, v in LAYOUTS.items())})")
+        if len(same) == 1:
+            return same[0]
+        scores = layout_scores(people, same)
+        return min(same, key=lambda n: scores[n] if np.isfinite(scores[n]) else np.inf)
+    if len(LAYOUTS[layout]) != K:
+        raise OpenPoseFormatError(source, f"layout {layout} has {len(LAYOUTS[layout])} keypoints, the files "
+                                          f"have {K} (layouts with {K}: {same or 'none'}; try layout=auto)")
+    if len(same) > 1:
+        scores = layout_scores(people, same)
+        best = min(same, key=lambda n: scores[n] if np.isfinite(scores[n]) else np.inf)
+        if best != layout and scores[best] * margin < scores[layout]:
+            raise OpenPoseFormatError(source, f"the keypoints do not look like {layout}: read as {best} "
+                                              f"their bones are {scores[layout] / scores[best]:.1f}x shorter "
+                                              f"(bone/size {scores[best]:.2f} vs {scores[layout]:.2f}); "
+                                              f"set layout={best} (or layout=auto)")
+    return layout
 
 
 def _triangulation_error(rig: Rig, xy: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, float]:
@@ -229,13 +362,15 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
     root = Path(path)
     if not root.is_dir():
         raise FileNotFoundError(f"recording folder not found: {root}")
-    if layout not in LAYOUTS:
-        raise ValueError(f"unknown keypoint layout {layout!r} (known: {', '.join(LAYOUTS)})")
+    if layout != "auto" and layout not in LAYOUTS:
+        raise ValueError(f"unknown keypoint layout {layout!r} (known: auto, {', '.join(LAYOUTS)})")
     if person not in ("subject", "all"):
         raise ValueError(f"person must be 'subject' or 'all', got {person!r}")
     calib = root / calibration if calibration is not None else _find_calibration(root)
     rig = load_calibration(calib)
-    people = read_keypoint_folders(rig, root / (keypoints or "pose"), layout)
+    kp_root = root / (keypoints or "pose")
+    people = read_keypoint_folders(rig, kp_root, None if layout == "auto" else len(LAYOUTS[layout]))
+    layout = resolve_layout(people, layout, kp_root)
     all_frames = sorted(set().union(*(p.keys() for p in people)))
     first = all_frames[0]
     all_frames = all_frames[:frames] if frames is not None else all_frames
@@ -254,10 +389,11 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
                 kp = ppl[i]
                 keep = (kp[:, 2] > 0) & (kp[:, 2] >= min_confidence) & (label_of >= 0)
                 for k in np.flatnonzero(keep):
-                    rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2]))
-    arr = np.array(rows, np.float64).reshape(-1, 6)
+                    rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2], i))
+    arr = np.array(rows, np.float64).reshape(-1, 7)
     det = Detections(labels=labels, frame=arr[:, 0].astype(np.int64), view=arr[:, 1].astype(np.int64),
-                     label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5])
+                     label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5],
+                     person=arr[:, 6].astype(np.int64))
     meta = {"source": str(root), "calibration": str(calib), "layout": layout, "person": person,
             "first_frame": int(first), "frames": len(all_frames)}
     return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, meta=meta)

@@ -16,6 +16,9 @@ class Detections:
     frame, view: (N,) int; label: (N,) int index into ``labels`` (-1: unlabelled);
     xy: (N, 2) float pixels; confidence: (N,) float in [0, 1].
     Several detections may share (frame, view, label): false positives, other people.
+    person: (N,) int or None: which person of its (frame, view) a detection belongs to (the
+    detector's grouping of keypoints into skeletons, -1: unknown); identities are per
+    frame and view, not across them.
     """
 
     labels: tuple[str, ...]
@@ -24,11 +27,12 @@ class Detections:
     label: np.ndarray
     xy: np.ndarray
     confidence: np.ndarray
+    person: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.frame)
-        for name in ("view", "label", "confidence"):
-            if len(getattr(self, name)) != n:
+        for name in ("view", "label", "confidence", "person"):
+            if getattr(self, name) is not None and len(getattr(self, name)) != n:
                 raise ValueError(f"detections: field '{name}' has {len(getattr(self, name))} "
                                  f"entries, expected {n}")
         if self.xy.shape != (n, 2):
@@ -41,7 +45,8 @@ class Detections:
         if view is not None:
             keep &= self.view == view
         return Detections(self.labels, self.frame[keep], self.view[keep], self.label[keep],
-                          self.xy[keep], self.confidence[keep])
+                          self.xy[keep], self.confidence[keep],
+                          None if self.person is None else self.person[keep])
 
     def __len__(self) -> int:
         return len(self.frame)

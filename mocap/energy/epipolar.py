@@ -91,3 +91,23 @@ def generalized_symmetric_epipolar_distance(F: np.ndarray, x: np.ndarray,
     total = np.where(pair, sq, 0.0).sum(axis=(-1, -2))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n > 0, np.sqrt(total / np.maximum(n, 1)), np.nan)
+
+
+def skeleton_epipolar_distance(F_ab: np.ndarray, x_a: np.ndarray, valid_a: np.ndarray,
+                               x_b: np.ndarray, valid_b: np.ndarray, min_common: int = 4) -> np.ndarray:
+    """Epipolar consistency of whole skeletons: the median, over the landmarks both hold, of
+    the symmetric epipolar distance between person i in view a and person j in view b.
+
+    F_ab: (3, 3); x_a: (N, L, 2), valid_a: (N, L); x_b: (M, L, 2), valid_b: (M, L), undistorted
+    pixels. Returns (N, M) pixels; inf where fewer than ``min_common`` landmarks are shared.
+    A single keypoint pair can agree by chance (any point on the epipolar line does); the
+    median over a skeleton's keypoints only for the same person.
+    """
+    d = symmetric_epipolar_distance(F_ab, x_a[:, None], x_b[None])       # (N, M, L)
+    both = valid_a[:, None] & valid_b[None]
+    d = np.where(both, d, np.nan)
+    out = np.full(both.shape[:2], np.inf)
+    enough = both.sum(axis=-1) >= min_common
+    if enough.any():
+        out[enough] = np.nanmedian(d[enough], axis=-1)
+    return out

@@ -42,6 +42,7 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import ShapedBody
 from mocap.cameras import Rig, fundamental_matrices, undistort_points
 from mocap.data.sequence import Detections
+from mocap.energy.marker_kernel import landmark_points, view_costs_fused
 
 
 @dataclass(frozen=True)
@@ -129,13 +130,16 @@ def pinhole_project(rig: Rig, points: np.ndarray) -> tuple[np.ndarray, np.ndarra
 class MarkerLikelihood:
     """gate_px: tau, the outlier threshold (pixels); min_views: landmarks with candidates in
     fewer views get temporal coherence; coherence_radius: r (metres); coherence_weight:
-    multiplies the coherence term (0 disables it); near: minimum depth (m) of a usable view."""
+    multiplies the coherence term (0 disables it); near: minimum depth (m) of a usable view;
+    compiled: evaluate with the compiled kernels (:mod:`mocap.energy.marker_kernel`), else
+    with the numpy reference."""
 
     gate_px: float = 30.0
     min_views: int = 3
     coherence_radius: float = 0.15
     coherence_weight: float = 1.0
     near: float = 0.05
+    compiled: bool = True
 
     def __post_init__(self) -> None:
         if not self.gate_px > 0 or not self.coherence_radius > 0:
@@ -232,26 +236,56 @@ class MarkerEnergy:
     distortion (obs holds undistorted pixels); obs: this frame's arranged detections;
     F: (C, C, 3, 3) the rig's fundamental matrices (computed when None); predicted: (L, 3)
     predicted landmark positions (for coherence); weak: (L,) bool landmarks that get the
-    coherence term. Costs are computed in the body's dtype (float32 for the shipped configs).
+    coherence term. Forward kinematics and view costs run in the compiled kernels of
+    :mod:`mocap.energy.marker_kernel` (float64); ``compiled=False`` uses the numpy reference
+    (:func:`view_costs`, in the body's dtype).
     """
 
     def __init__(self, landmarks: LandmarkSet, shaped: ShapedBody, rig: Rig, obs: MarkerObservation,
                  settings: MarkerLikelihood, F: np.ndarray | None = None,
-                 predicted: np.ndarray | None = None, weak: np.ndarray | None = None):
+                 predicted: np.ndarray | None = None, weak: np.ndarray | None = None,
+                 compiled: bool | None = None, rest_offsets: np.ndarray | None = None):
         self.landmarks, self.shaped, self.rig, self.obs, self.settings = landmarks, shaped, rig, obs, settings
         self.F = fundamental_matrices(rig) if F is None else F
-        dtype = landmarks.model.dtype                       # float32 bodies: float32 costs
-        self.tables = EpipolarTables.build(obs, rig, self.F).astype(dtype)
-        self.obs_cast = MarkerObservation(obs.xy.astype(dtype), obs.valid, obs.confidence)
-        self.rest = landmarks.rest_points(shaped)
+        self.compiled = settings.compiled if compiled is None else compiled
+        tables = EpipolarTables.build(obs, rig, self.F)
+        L, C, K, _ = obs.xy.shape
+        if self.compiled:
+            self.tables = tables
+            self.obs_cast = obs
+            self._lines = np.ascontiguousarray(tables.lines.reshape(L, C, K, C, 3))
+            self._cams = (np.ascontiguousarray(rig.R, np.float64), np.ascontiguousarray(rig.t, np.float64),
+                          np.ascontiguousarray(rig.K, np.float64))
+            m = landmarks.model
+            self._fk = (np.asarray(m.parents, np.int64), np.asarray(m.dof_joint, np.int64),
+                        np.ascontiguousarray(shaped.axes, np.float64),
+                        np.ascontiguousarray(shaped.rest_joints, np.float64),
+                        np.asarray(landmarks.joint, np.int64),
+                        np.ascontiguousarray(self._rest_points(landmarks, shaped, rest_offsets), np.float64))
+        else:
+            dtype = landmarks.model.dtype                   # float32 bodies: float32 costs
+            self.tables = tables.astype(dtype)
+            self.obs_cast = MarkerObservation(obs.xy.astype(dtype), obs.valid, obs.confidence)
+        self.rest = self._rest_points(landmarks, shaped, rest_offsets).astype(landmarks.model.dtype)
         L = len(landmarks)
         self.predicted = predicted
         self.weak = np.zeros(L, bool) if weak is None or predicted is None else np.asarray(weak, bool)
+
+    @staticmethod
+    def _rest_points(landmarks: LandmarkSet, shaped: ShapedBody, offsets: np.ndarray | None) -> np.ndarray:
+        """Rest landmarks (L, 3), plus keypoint offsets in their joints' rest frames
+        (:mod:`mocap.trackers.marker_offsets`) when given."""
+        rest = np.asarray(landmarks.rest_points(shaped), np.float64)
+        return rest if offsets is None else rest + offsets
 
     def points(self, chi: np.ndarray) -> np.ndarray:
         """Landmarks (P, L, 3) of poses (P, D), in the body's dtype (forward kinematics as
         :meth:`LandmarkSet.positions`, with the rest points computed once)."""
         m = self.landmarks.model
+        if self.compiled:
+            parents, dof_joint, axes, rest_joints, lm_joint, rest = self._fk
+            chi = np.ascontiguousarray(np.atleast_2d(chi), np.float64)
+            return landmark_points(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest)
         chi = np.atleast_2d(np.asarray(chi, dtype=m.dtype))
         G = chain_transforms(m.parents, m.dof_joint, self.shaped.axes, self.shaped.rest_joints,
                              chi[:, :6], chi[:, 6:])
@@ -261,8 +295,13 @@ class MarkerEnergy:
         """Per-landmark costs of landmarks X: (P, L, 3): (markers (P, L), coherence (P, L)),
         each divided by L x C so that their sum over landmarks is the energy (pixels^2)."""
         s = self.settings
-        u, depth = pinhole_project(self.rig, X)
-        cost, _ = view_costs(u, depth > s.near, self.obs_cast, self.tables, s.gate_px)
+        if self.compiled:
+            cost, _ = view_costs_fused(np.ascontiguousarray(X, np.float64), *self._cams, self.obs.xy,
+                                       self.obs.valid, self._lines, self.tables.epipoles,
+                                       float(s.gate_px) ** 2, float(s.near))
+        else:
+            u, depth = pinhole_project(self.rig, X)
+            cost, _ = view_costs(u, depth > s.near, self.obs_cast, self.tables, s.gate_px)
         P, L, C = cost.shape
         markers = cost.sum(axis=2) / (L * C)
         coh = np.zeros((P, L), cost.dtype)

@@ -74,6 +74,16 @@ class LandmarkReport:
 
 
 @dataclass(frozen=True)
+class RefineTrace:
+    """The marker tracker's final Gauss-Newton refinement on the reprojection error:
+    iterations run, median reprojection residual (px) before and after."""
+
+    iterations: int = 0
+    residual_px_before: float = float("nan")
+    residual_px_after: float = float("nan")
+
+
+@dataclass(frozen=True)
 class StepDiagnostics:
     """Everything one step reports. ``initial``: the estimate is the initial pose."""
 
@@ -83,6 +93,7 @@ class StepDiagnostics:
     refine: LocalTrace | None = None
     misalignment: Misalignment | None = None
     landmarks: LandmarkReport | None = None
+    marker_refine: RefineTrace | None = None
     timings: Mapping[str, float] = field(default_factory=dict)
     ignored_views: tuple[str, ...] = ()
     initial: bool = False
@@ -153,6 +164,8 @@ class StepDiagnostics:
             d.update(landmarks=lm.points, landmark_names=list(lm.names),
                      views_per_landmark=dict(lm.views), weak_landmarks=list(lm.weak),
                      reprojection_px=lm.reprojection_px)
+        if self.marker_refine is not None:
+            d["refinement"] = dataclasses.asdict(self.marker_refine)
         return d
 
     # read-only mapping access to the old dictionary form

@@ -78,14 +78,15 @@ def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, nam
 def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "marker_apf",
                         gate: float = 0.04, min_views: int = 3, coherence_radius: float = 0.15,
                         coherence_weight: float = 1.0, landmarks: str | Sequence = "auto",
-                        init: Mapping | None = None, **options):
+                        init: Mapping | None = None, refine: Mapping | None = None,
+                        offsets: Mapping | None = None, **options):
     """The marker tracker of Canton-Ferrer et al. 2010 (``conf/tracker/marker_apf.yaml``).
     gate: the outlier threshold tau as a fraction of the image diagonal. Search keys go to
     :class:`APFSettings` (the marker defaults: 100 x 6, survival 0.25, shrink 0.85), the
     rest (init_std, prediction_damping, min_confidence, crossover, keep_particles) to
     :class:`MarkerAPFTracker`."""
     from mocap.energy.markers import MarkerLikelihood
-    from mocap.trackers.marker_apf import MarkerAPFTracker, make_init
+    from mocap.trackers.marker_apf import MarkerAPFTracker, make_init, make_offsets, make_refinement
 
     options = dict(options)
     settings = _search(options, layers=6, survival=0.25, shrink=0.85)
@@ -97,7 +98,8 @@ def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     if "init_std" in options:
         options["init_std"] = tuple(options["init_std"])
     return MarkerAPFTracker(body, rig, settings, likelihood, rng, landmarks=landmarks,
-                            init=make_init(init), name=name, **options)
+                            init=make_init(init), refine=make_refinement(refine),
+                            offsets=make_offsets(offsets), name=name, **options)
 
 
 def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "local",

@@ -23,6 +23,7 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.root_motion import predict_root
 from mocap.cameras import Rig, fundamental_matrices
+from mocap.data.openpose import capture_centre
 from mocap.energy.markers import (
     MarkerEnergy,
     MarkerLikelihood,
@@ -34,8 +35,9 @@ from mocap.energy.markers import (
 from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Frame
-from mocap.trackers.diagnostics import LandmarkReport, StepDiagnostics
+from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
 from mocap.trackers.marker_anneal import PartGroup, part_groups, run_annealing
+from mocap.trackers.marker_associate import associate_people, person_detections, skeletons_of
 from mocap.trackers.marker_init import (
     fit_shape,
     neutral_pose,
@@ -44,6 +46,9 @@ from mocap.trackers.marker_init import (
     triangulate_candidates,
 )
 from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+from mocap.trackers.marker_offsets import OffsetLearning, local_residuals, robust_offsets
+from mocap.trackers.marker_refine import Refinement, refine_pose
+from mocap.trackers.marker_shape import length_model, skeleton_length_model
 from mocap.trackers.step import AnnealedStep
 
 
@@ -52,7 +57,11 @@ class MarkerInit:
     """Self-initialisation: passes of annealed inverse kinematics to the triangulated
     landmarks (particles x layers each, first-pass diffusion ``std`` = (translation m,
     rotation rad, joints rad) shrinking by ``shrink`` per pass); ``length_sigma``: the
-    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape."""
+    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape;
+    ``outlier_sigma``: measured distances this many shape-model sigmas from their mean are
+    ignored by the fit; ``bound_sigma``: a fitted bone outside the model's mean +- this many
+    sigmas makes the start-up fall back to the mean shape (flagged); ``association_px``: the
+    skeleton epipolar threshold of the cross-view association (None: the gate)."""
 
     passes: int = 3
     particles: int = 300
@@ -61,6 +70,9 @@ class MarkerInit:
     shrink: float = 0.4
     length_sigma: float = 0.02
     fit_shape: bool = True
+    outlier_sigma: float = 4.0
+    bound_sigma: float = 3.0
+    association_px: float | None = None
 
 
 class MarkerAPFTracker(AnnealedStep):
@@ -70,7 +82,8 @@ class MarkerAPFTracker(AnnealedStep):
                  rng: np.random.Generator, landmarks: str | Sequence = "auto",
                  init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
                  min_confidence: float = 0.0, init: MarkerInit = MarkerInit(), crossover: bool = True,
-                 keep_particles: bool = False, name: str = "marker_apf"):
+                 keep_particles: bool = False, name: str = "marker_apf",
+                 refine: Refinement | None = None, offsets: OffsetLearning | None = None):
         self.body, self.rig, self.settings, self.likelihood = body, rig, settings, likelihood
         self.rng, self.name, self.keep_particles = rng, name, keep_particles
         self.landmark_spec = landmarks
@@ -85,8 +98,28 @@ class MarkerAPFTracker(AnnealedStep):
         self.landmarks: LandmarkSet | None = None
         self.shaped: ShapedBody | None = None
         self.history: list[np.ndarray] = []
+        self.start_up_flags: list[str] = []
+        self.start_up: dict = {}
+        self.refinement = refine or Refinement()
+        self.offset_learning = offsets or OffsetLearning()
+        self.offsets: np.ndarray | None = None          # (L, 3) once learned
+        self._offset_samples: list[np.ndarray] = []
+        self._refined: RefineTrace | None = None
 
     # -- set-up ------------------------------------------------------------------------
+    def check_sequence(self, seq) -> None:
+        """Raise a ValueError, before any work starts, when ``seq`` cannot be tracked: no
+        detections at all, none in the first frame, or no detection label the landmark set
+        knows (experiments/track.py calls this right after building the tracker)."""
+        det = seq.detections
+        if det is None or not len(det):
+            raise ValueError(f"{self.name} needs 2D detections, but sequence {seq.name!r} has none: use "
+                             "data with detections (e.g. data=walk_markers_small, "
+                             "or a keypoint recording such as data=pose2sim_demo), or a silhouette tracker")
+        make_landmark_set(self.body, self.landmark_spec, det.labels)          # raises on unknown names
+        if not np.any(det.frame == 0):
+            raise ValueError(f"{self.name}: sequence {seq.name!r} has no detections in its first frame")
+
     def _landmarks_for(self, frame: Frame) -> LandmarkSet:
         if frame.detections is None:
             raise ValueError(f"{self.name}: frame {frame.index} has no detections; the marker "
@@ -110,25 +143,91 @@ class MarkerAPFTracker(AnnealedStep):
         self.history = [chi]
 
     def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-        """(chi (D,), alpha (K,)) from one frame of labelled detections (Sec. 3.1)."""
+        """(chi (D,), alpha (K,)) from one frame of labelled detections (Sec. 3.1), robust to
+        other people in view and to implausible fits:
+
+        1. Sources of 3D landmarks: when the detections group keypoints into skeletons
+           (``Detections.person``), the people associated across views by whole-skeleton
+           epipolar consistency (:mod:`mocap.trackers.marker_associate`), the subject being
+           the one seen in the most views (then nearest the capture centre), triangulated
+           from that person's detections only; and always the per-landmark RANSAC
+           triangulation of every candidate (:func:`triangulate_candidates`).
+        2. Per source, the shape fitted to the rigid landmark distances, pairs more than
+           ``init.outlier_sigma`` standard deviations of the shape model from their mean
+           ignored (:mod:`mocap.trackers.marker_shape`); a fitted body with a bone outside
+           the model's +-``init.bound_sigma`` sigma falls back to the mean shape (flagged in
+           ``start_up_flags``). The mean shape is a hypothesis too.
+        3. Each hypothesis (source x shape) is posed by annealed IK and scored by the marker
+           likelihood of the frame (all candidates); the lowest energy wins.
+        """
         obs = self.observe(frame)
         lms = self.landmarks
-        gate = self.likelihood.gate_px
-        measured, views = triangulate_candidates(self.pinhole, obs, gate)
-        if np.isfinite(measured[:, 0]).sum() < 3:
+        self.start_up_flags: list[str] = []
+        sources = self._start_up_sources(frame, obs)
+        if not sources:
             raise ValueError(f"{self.name}: frame {frame.index}: fewer than 3 landmarks could be "
                              "triangulated (the initialisation needs labelled detections in >= 2 views)")
         rest0, basis = rest_point_basis(self.body, lms)
-        alpha = np.zeros(self.body.num_shape)
-        if self.init.fit_shape:
-            pairs = rigid_pairs(self.body, lms)
-            lengths = np.linalg.norm(measured[pairs[:, 0]] - measured[pairs[:, 1]], axis=1)
-            alpha = fit_shape(rest0, basis, pairs, lengths, self.init.length_sigma)
-        shaped = self.body.shaped(alpha)
-        rest = lms.rest_points(shaped).astype(np.float64)
-        chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
-        chi = self._fit_to_points(shaped, chi, measured)
+        pairs = rigid_pairs(self.body, lms)
+        pair_model = length_model(rest0, basis, pairs)
+        bones, bone_names = skeleton_length_model(self.body)
+        tried: list[tuple[float, np.ndarray, np.ndarray, str]] = []
+        for source, measured in sources:
+            shapes = [("mean shape", np.zeros(self.body.num_shape))]
+            if self.init.fit_shape:
+                lengths = pair_model.lengths(measured)
+                lengths[np.abs(pair_model.z_scores(lengths)) > self.init.outlier_sigma] = np.nan
+                alpha = fit_shape(rest0, basis, pairs, lengths, self.init.length_sigma)
+                _, joints = self.body.rest(alpha[None])
+                z = bones.z_scores(bones.lengths(np.asarray(joints[0], np.float64)))
+                if np.abs(z).max() > self.init.bound_sigma:
+                    worst = int(np.argmax(np.abs(z)))
+                    self.start_up_flags.append(
+                        f"start-up ({source}): fitted shape implausible ({bone_names[worst]} at "
+                        f"{z[worst]:+.1f} sigma), mean shape used instead")
+                else:
+                    shapes.insert(0, ("fitted shape", alpha))
+            for shape_name, alpha in shapes:
+                shaped = self.body.shaped(alpha)
+                rest = lms.rest_points(shaped).astype(np.float64)
+                chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
+                chi = self._fit_to_points(shaped, chi, measured)
+                energy = MarkerEnergy(lms, shaped, self.pinhole, obs, self.likelihood, F=self.F)
+                tried.append((float(energy(chi[None])[0]), chi, alpha, f"{source}, {shape_name}"))
+        e, chi, alpha, label = min(tried, key=lambda t: t[0])
+        self.start_up = {"chosen": label, "energies": {t[3]: t[0] for t in tried},
+                         "flags": list(self.start_up_flags)}
+        if "mean shape" in label and self.init.fit_shape and not self.start_up_flags:
+            self.start_up_flags.append(f"start-up: the mean shape fitted the detections better ({label})")
         return chi, alpha
+
+    def _start_up_sources(self, frame: Frame, obs: MarkerObservation) -> list[tuple[str, np.ndarray]]:
+        """[(name, measured landmarks (L, 3) world, NaN = unmeasured)] of the module's start-up."""
+        gate = self.likelihood.gate_px
+        out = []
+        det = frame.detections
+        sk = skeletons_of(det, self.landmarks.names, self.rig)
+        if sk is not None and sum(len(x) > 0 for x in sk.xy) >= 2:
+            people = associate_people(sk, self.F, self.init.association_px or gate)
+            if people:
+                centre = capture_centre(self.pinhole)
+                best = None
+                for person, _ in people:
+                    sub = arrange_detections(person_detections(det, sk, person), self.landmarks.names,
+                                             self.rig, self.min_confidence)
+                    X, _ = triangulate_candidates(self.pinhole, sub, gate)
+                    if np.isfinite(X[:, 0]).sum() < 3:
+                        continue
+                    views = sum(i is not None for i in person)
+                    key = (views, -float(np.linalg.norm(np.nanmedian(X, axis=0) - centre)))
+                    if best is None or key > best[0]:
+                        best = (key, X)
+                if best is not None:
+                    out.append((f"associated person ({len(people)} in view)", best[1]))
+        measured, _ = triangulate_candidates(self.pinhole, obs, gate)
+        if np.isfinite(measured[:, 0]).sum() >= 3:
+            out.append(("per-landmark triangulation", measured))
+        return out
 
     def _fit_to_points(self, shaped: ShapedBody, chi: np.ndarray, target: np.ndarray) -> np.ndarray:
         """Annealed inverse kinematics: landmarks of chi towards target (L, 3), NaN ignored;
@@ -168,14 +267,33 @@ class MarkerAPFTracker(AnnealedStep):
         n_views = views_near(obs, self.pinhole, pred_pts, self.likelihood.gate_px)
         weak = n_views < self.likelihood.min_views
         energy = MarkerEnergy(lms, self.shaped, self.pinhole, obs, self.likelihood, F=self.F,
-                              predicted=pred_pts, weak=weak)
+                              predicted=pred_pts, weak=weak, rest_offsets=self.offsets)
         return energy, n_views
 
+    def _learn_offsets(self, energy: MarkerEnergy, chi: np.ndarray) -> None:
+        """Collect one frame's keypoint residuals; set the offsets when enough are in."""
+        s = self.offset_learning
+        if not s.frames or self.offsets is not None:
+            return
+        X, _ = triangulate_candidates(self.pinhole, energy.obs, self.likelihood.gate_px)
+        G = self.shaped.pose(chi[None]).transforms[0].astype(np.float64)[self.landmarks.joint]
+        rest = self.landmarks.rest_points(self.shaped).astype(np.float64)
+        self._offset_samples.append(local_residuals(G, X, rest))
+        if len(self._offset_samples) >= s.frames:
+            self.offsets = robust_offsets(np.stack(self._offset_samples), s)
+
     def search(self, energy: MarkerEnergy, predicted: np.ndarray):
-        return run_annealing(energy.landmark_costs, predicted, self.std0, self.body.limits,
-                             self.settings, self.rng, keep_particles=self.keep_particles,
-                             previous=self.history[-1], root_point=self.shaped.rest_joints[0],
-                             groups=self.groups)
+        chi, trace = run_annealing(energy.landmark_costs, predicted, self.std0, self.body.limits,
+                                   self.settings, self.rng, keep_particles=self.keep_particles,
+                                   previous=self.history[-1], root_point=self.shaped.rest_joints[0],
+                                   groups=self.groups)
+        self._refined = None
+        if self.refinement.iterations:          # Gauss-Newton on the reprojection error
+            chi, info = refine_pose(energy.points, chi, energy.obs, self.pinhole, self.body.limits,
+                                    self.refinement, self.likelihood.gate_px)
+            self._refined = RefineTrace(**info)
+        self._learn_offsets(energy, chi)
+        return chi, trace
 
     def report(self, energy, n_views, chi, trace, timings) -> StepDiagnostics:
         points = energy.points(chi[None]).astype(np.float64)
@@ -186,7 +304,16 @@ class MarkerAPFTracker(AnnealedStep):
             names=names, points=points[0], views={n: int(v) for n, v in zip(names, n_views, strict=True)},
             weak=tuple(n for n, w in zip(names, energy.weak, strict=True) if w),
             reprojection_px=float(np.nanmedian(reproj)) if np.isfinite(reproj).any() else float("nan"))
-        return StepDiagnostics(energy_terms=terms, anneal=trace, landmarks=report, timings=timings)
+        return StepDiagnostics(energy_terms=terms, anneal=trace, landmarks=report, timings=timings,
+                               marker_refine=self._refined)
+
+
+def make_refinement(settings: Mapping | None) -> Refinement:
+    return Refinement(**dict(settings or {}))
+
+
+def make_offsets(settings: Mapping | None) -> OffsetLearning:
+    return OffsetLearning(**dict(settings or {}))
 
 
 def make_init(settings: Mapping | None) -> MarkerInit:

@@ -3,6 +3,7 @@ ground truth: the run reports the keypoint metrics of mocap/eval/keypoint_metric
 (Synthetic marker runs are covered by tests/experiments/test_track.py.)"""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -10,7 +11,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-DEMO = REPO.parent / "shared" / "data" / "pose2sim-demo"
+DEMO = Path(os.environ.get("MOCAP_SHARED_DATA") or REPO.parent / "shared" / "data") / "pose2sim-demo"
 
 
 def run_track(tmp_path: Path, *overrides: str) -> dict:
@@ -30,3 +31,13 @@ def test_marker_run_on_the_pose2sim_demo_reports_keypoint_metrics(tmp_path):
     assert all(0 < v < 60 for v in per_view.values())
     assert m["bone_length_std_mm"] < 1.0                    # a body model: bones of constant length
     assert m["triangulation"]["reprojection_median_px"] < m["reprojection_median_px"] + 20
+
+
+def test_marker_tracker_on_data_without_detections_fails_before_any_work(tmp_path):
+    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={tmp_path}",
+                        "tracker=marker_apf", "data=walk_small", "data.frames=2", "recording.enabled=true"],
+                       capture_output=True, text=True, cwd=REPO, timeout=300)
+    assert r.returncode != 0
+    assert "marker_apf needs 2D detections" in r.stderr and "has none" in r.stderr
+    assert "it/s" not in r.stderr and "frame/s" not in r.stderr               # no progress bar: no tracking
+    assert not (tmp_path / "recording.rrd").exists() and not (tmp_path / "metrics.json").exists()

@@ -1,0 +1,47 @@
+"""The compiled marker likelihood (mocap/energy/marker_kernel.py) against its numpy
+references: forward kinematics (LandmarkSet.positions) and view_costs."""
+
+import numpy as np
+import pytest
+
+from mocap.cameras import rig_from_config
+from mocap.data.generate import make_synthetic
+from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, arrange_detections
+from mocap.trackers.marker_landmarks import make_landmark_set
+
+
+@pytest.fixture(scope="module")
+def scene(body64):
+    rig = rig_from_config("humaneva")
+    det = {"enabled": True, "detection_rate": 0.8, "false_positive_rate": 0.5, "noise_px": 2.0,
+           "occlusion": False}
+    seq = make_synthetic(body64, rig, motion="walk", frames=2, fps=25, seed=1, masks=False, detections=det)
+    lms = make_landmark_set(body64, "auto", seq.detections.labels)
+    obs = arrange_detections(seq.detections.select(1), lms.names, rig)
+    assert obs.num_candidates >= 2                                   # false positives: several candidates
+    return seq, lms, obs, rig
+
+
+def test_compiled_landmarks_match_forward_kinematics(body64, scene):
+    seq, lms, obs, rig = scene
+    shaped = body64.shaped(seq.gt.alpha)
+    chi = seq.gt.chi[1] + np.random.default_rng(0).normal(0, 0.3, (50, body64.num_dofs))
+    e = MarkerEnergy(lms, shaped, rig, obs, MarkerLikelihood(gate_px=30.0))
+    np.testing.assert_allclose(e.points(chi), lms.positions(shaped, chi), atol=1e-9)
+
+
+@pytest.mark.parametrize("gate", [5.0, 30.0])
+def test_compiled_costs_match_the_numpy_likelihood(body64, scene, gate):
+    seq, lms, obs, rig = scene
+    shaped = body64.shaped(seq.gt.alpha)
+    rng = np.random.default_rng(1)
+    chi = seq.gt.chi[1] + rng.normal(0, 0.05, (80, body64.num_dofs))
+    chi[:5, 3:6] += [0.0, -6.0, 0.0]                # some particles behind a camera / far off
+    s = MarkerLikelihood(gate_px=gate)
+    pred = lms.positions(shaped, seq.gt.chi[1][None])[0]
+    weak = np.arange(len(lms)) % 3 == 0
+    fast = MarkerEnergy(lms, shaped, rig, obs, s, predicted=pred, weak=weak)
+    ref = MarkerEnergy(lms, shaped, rig, obs, s, predicted=pred, weak=weak, compiled=False)
+    a, b = fast.landmark_costs(chi), ref.landmark_costs(chi)
+    assert np.ptp(b) > 0 and (b < gate**2 / (len(lms) * len(rig))).any()
+    np.testing.assert_allclose(a, b, rtol=1e-7, atol=1e-9)

@@ -1,0 +1,33 @@
+"""Gauss-Newton refinement of the marker tracker's estimate (mocap/trackers/marker_refine.py)."""
+
+import numpy as np
+
+from mocap.cameras import rig_from_config
+from mocap.data.generate import make_synthetic
+from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, arrange_detections
+from mocap.trackers.marker_init import pinhole_rig
+from mocap.trackers.marker_landmarks import make_landmark_set
+from mocap.trackers.marker_refine import Refinement, refine_pose
+
+
+def test_refinement_recovers_a_perturbed_pose_from_exact_detections(body64):
+    rig = pinhole_rig(rig_from_config("humaneva"))
+    det = {"enabled": True, "detection_rate": 1.0, "false_positive_rate": 0.3, "noise_px": 0.0,
+           "occlusion": False}
+    seq = make_synthetic(body64, rig, motion="walk", frames=1, fps=25, seed=2, masks=False, detections=det)
+    lms = make_landmark_set(body64, "auto", seq.detections.labels)
+    obs = arrange_detections(seq.detections.select(0), lms.names, rig)
+    shaped = body64.shaped(seq.gt.alpha)
+    energy = MarkerEnergy(lms, shaped, rig, obs, MarkerLikelihood(gate_px=40.0))
+    truth = seq.gt.chi[0]
+    rng = np.random.default_rng(0)
+    start = np.clip(truth + rng.normal(0, 0.03, truth.shape), body64.limits[:, 0], body64.limits[:, 1])
+    err = lambda chi: 1e3 * np.linalg.norm(energy.points(chi[None])[0] - seq.gt.markers[0], axis=1).mean()  # noqa: E731
+    chi, info = refine_pose(energy.points, start, obs, rig, body64.limits,
+                            Refinement(iterations=5, prior_std=10.0), 40.0)
+    assert err(start) > 15.0
+    assert err(chi) < 0.1 * err(start) and err(chi) < 2.0                # exact data: back to the truth
+    assert info["residual_px_after"] < 0.2 < info["residual_px_before"]
+    same, info0 = refine_pose(energy.points, start, obs, rig, body64.limits, Refinement(iterations=0), 40.0)
+    np.testing.assert_array_equal(same, start)
+    assert info0["iterations"] == 0

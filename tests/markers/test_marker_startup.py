@@ -1,0 +1,80 @@
+"""The marker tracker's start-up with other people in view (mocap/trackers/marker_apf.py
+initial_estimate, mocap/trackers/marker_associate.py, mocap/trackers/marker_shape.py)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from mocap.body.twists import se3_exp, se3_log
+from mocap.cameras import fundamental_matrices, project, rig_from_config
+from mocap.data.crowd import crowd_detections
+from mocap.data.motion import generate_motion
+from mocap.data.openpose import LAYOUTS
+from mocap.data.sequence import Sequence
+from mocap.trackers.factory import make_marker_tracker
+from mocap.trackers.marker_associate import associate_people, skeletons_of
+from mocap.trackers.marker_init import pinhole_rig
+from mocap.trackers.marker_shape import skeleton_length_model
+from mocap.trackers.run import frame_of
+
+REPO = Path(__file__).resolve().parents[2]
+LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
+
+
+def tracker(body, rig, seed=0, **overrides):
+    cfg = yaml.safe_load((REPO / "conf" / "tracker" / "marker_apf.yaml").read_text())
+    cfg.pop("_target_")
+    cfg.update(overrides)
+    return make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(seed), **cfg)
+
+
+def two_people(body, rig, offset=(0.7, 0.0, 0.0), frames=1, seed=0):
+    """The subject walking at the centre and a taller bystander ``offset`` metres away doing
+    the same, both fully seen in every view (1 px noise)."""
+    chi = generate_motion(body, "walk", frames, fps=25, seed=3)
+    other = chi.copy()
+    T = se3_exp(chi[:, :6].astype(np.float64))
+    T[:, :3, 3] += offset                                     # the same motion, moved by offset
+    other[:, :6] = se3_log(T)
+    alphas = np.zeros((2, body.num_shape))
+    alphas[0, :3] = [-1.0, 0.5, 0.0]
+    alphas[1, :3] = [2.0, -0.5, 0.5]
+    det, pts = crowd_detections(body, rig, np.stack([chi, other]), alphas, LABELS, noise_px=1.0, seed=seed)
+    return Sequence(name="two_people", rig=rig, fps=25, detections=det), alphas, pts
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return rig_from_config("humaneva")
+
+
+def test_skeletons_are_associated_across_views_by_person(body, rig):
+    seq, _, pts = two_people(body, rig)
+    det = seq.detections.select(0)
+    sk = skeletons_of(det, LABELS, rig)
+    people = associate_people(sk, fundamental_matrices(pinhole_rig(rig)), threshold_px=20.0)
+    assert len(people) == 2 and all(all(i is not None for i in p) for p, _ in people)
+    for person, err in people:                                 # each set holds one true person
+        truth = set()
+        for c, i in enumerate(person):
+            ok = sk.valid[c][i]
+            d = [np.abs(sk.xy[c][i][ok] - project(rig[c], pts[n, 0])[ok]).max() for n in range(2)]
+            assert min(d) < 6.0                                  # 1 px noise: this skeleton is person n
+            truth.add(int(np.argmin(d)))
+        assert len(truth) == 1 and err < 5.0
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_second_person_in_every_view_does_not_corrupt_the_shape(body, rig, seed):
+    seq, alphas, _ = two_people(body, rig, seed=seed)
+    trk = tracker(body, rig, seed=seed)
+    chi, alpha = trk.initial_estimate(frame_of(seq, 0))
+    model, names = skeleton_length_model(body)
+    _, joints = body.rest(np.stack([alpha, alphas[0]]))
+    fitted, true = model.lengths(np.asarray(joints, np.float64))
+    assert np.abs(model.z_scores(fitted)).max() <= 3.0                  # within the model's bounds
+    legs = [names.index(n) for n in ("l_hip-l_knee", "l_knee-l_ankle", "r_hip-r_knee", "r_knee-r_ankle")]
+    np.testing.assert_allclose(fitted[legs], true[legs], atol=0.03)     # the subject's legs, not a mix
+    assert "associated person (2 in view)" in trk.start_up["chosen"]
