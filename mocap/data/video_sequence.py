@@ -119,3 +119,19 @@ def masks_from_folder(folder: Path, seq: Sequence) -> np.ndarray:
 def video_sequence(*, body=None, path: str, **options) -> Sequence:
     """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused."""
     return load_video_sequence(path, **options)
+
+
+def load_background_clip(folder: str | Path, seq: Sequence, max_frames: int = 60) -> np.ndarray:
+    """(B, C, H, W, 3) RGB frames of an empty-scene clip (one video per camera in ``folder``,
+    matched by name like the recording's), at ``seq``'s calibration and scale."""
+    folder = Path(folder)
+    meta = seq.meta
+    from mocap.cameras import load_calibration as _load
+
+    full = _load(meta["calibration"])
+    paths = match_videos(full.names, folder)
+    total = min(video_info(p).frames for p in paths)
+    step = max(1, total // max_frames)
+    frames = VideoFrames(paths, [tuple(s) for s in full.sizes], list(range(0, total, step)),
+                         meta.get("scale", 1.0), names=full.names)
+    return np.asarray(frames)
