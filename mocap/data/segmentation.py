@@ -144,7 +144,8 @@ def skeleton_mask(kp: dict[str, np.ndarray], shape: tuple[int, int], thickness: 
     return m.astype(bool)
 
 
-def keypoint_box(kp: dict[str, np.ndarray], shape: tuple[int, int], margin: float) -> tuple[int, int, int, int]:
+def keypoint_box(kp: dict[str, np.ndarray], shape: tuple[int, int],
+                 margin: float) -> tuple[int, int, int, int]:
     """(x0, y0, x1, y1) box of the keypoints grown by ``margin`` x its height, clipped."""
     pts = np.array(list(kp.values()))
     (x0, y0), (x1, y1) = pts.min(0), pts.max(0)
@@ -238,7 +239,8 @@ def carve_views(masks: np.ndarray, rig: Rig, box: np.ndarray, voxel: float = 0.0
         k = keep & inimg[c]
         hull = np.zeros((H, W), np.uint8)
         hull[v[c, k], u[c, k]] = 1
-        r = max(1, int(np.ceil(rig.K[c, 0, 0] * voxel / max(np.median(depth[c, k]) if k.any() else 1.0, 1e-3))))
+        z = max(float(np.median(depth[c, k])) if k.any() else 1.0, 1e-3)
+        r = max(1, int(np.ceil(rig.K[c, 0, 0] * voxel / z)))      # a voxel's size in pixels
         hull = cv2.dilate(hull, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
         out[c] = masks[c] & hull.astype(bool)
     return out
