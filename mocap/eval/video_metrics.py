@@ -37,23 +37,34 @@ def _residuals(rig: Rig, X: np.ndarray, names: Sequence[str], det: Detections, m
     return err[ok], f[ok], c[ok]
 
 
-def offset_reprojection(rig: Rig, X: np.ndarray, names: Sequence[str], det: Detections,
-                        min_confidence: float = 0.5, px_scale: float = 1.0) -> dict:
-    """Reprojection of landmarks ``X`` (F, L, 3) world metres against ``det``.
-
-    px_scale: multiplies pixel errors (e.g. 1 / image scale to report full-resolution px).
-    Keys: median_px, median_px_per_view (raw); fitted_median_px, fitted_median_px_per_view,
-    fitted_per_frame_px (F,), offsets_mm {landmark: |offset|} (with the constant offsets).
-    """
-    F = len(X)
-    T = triangulate_detections(rig, Detections(det.labels, det.frame, det.view, det.label, det.xy,
-                                               det.confidence), names, F, min_confidence)
+def fit_offsets(rig: Rig, X: np.ndarray, names: Sequence[str], det: Detections,
+                min_confidence: float = 0.5) -> np.ndarray:
+    """(L, 3) constant world offsets keypoint - landmark: per landmark, the median over frames
+    of (per-frame triangulation of the keypoint - the landmark ``X`` (F, L, 3))."""
+    T = triangulate_detections(rig, det, names, len(X), min_confidence)
     d = T - X
     offsets = np.zeros((len(names), 3))
     for i in range(len(names)):
         ok = np.all(np.isfinite(d[:, i]), axis=1)
         if ok.any():
             offsets[i] = np.median(d[ok, i], axis=0)
+    return offsets
+
+
+def offset_reprojection(rig: Rig, X: np.ndarray, names: Sequence[str], det: Detections,
+                        min_confidence: float = 0.5, px_scale: float = 1.0,
+                        offsets: np.ndarray | None = None) -> dict:
+    """Reprojection of landmarks ``X`` (F, L, 3) world metres against ``det``.
+
+    px_scale: multiplies pixel errors (e.g. 1 / image scale to report full-resolution px).
+    offsets: (L, 3) keypoint-to-landmark offsets to apply (None: fitted on ``X`` itself by
+    :func:`fit_offsets`, which also absorbs a tracker's own constant bias).
+    Keys: median_px, median_px_per_view (raw); fitted_median_px, fitted_median_px_per_view,
+    fitted_per_frame_px (F,), offsets_mm {landmark: |offset|}, offsets_m {landmark: [x, y, z]}.
+    """
+    F = len(X)
+    if offsets is None:
+        offsets = fit_offsets(rig, X, names, det, min_confidence)
     out: dict = {}
     for key, Y in (("", X), ("fitted_", X + offsets[None])):
         err, f, c = _residuals(rig, Y, names, det, min_confidence)
@@ -65,6 +76,7 @@ def offset_reprojection(rig: Rig, X: np.ndarray, names: Sequence[str], det: Dete
             out["fitted_per_frame_px"] = [float(np.median(err[f == t])) if np.any(f == t) else float("nan")
                                           for t in range(F)]
     out["offsets_mm"] = {n: float(1e3 * np.linalg.norm(o)) for n, o in zip(names, offsets, strict=True)}
+    out["offsets_m"] = {n: o.tolist() for n, o in zip(names, offsets, strict=True)}
     out["keypoints_used"] = int(len(_residuals(rig, X, names, det, min_confidence)[0]))
     return out
 
