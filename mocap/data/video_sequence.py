@@ -1,0 +1,137 @@
+"""A recording given as videos + calibration (+ keypoints, + masks) as a :class:`Sequence`
+whose images are decoded lazily (:class:`mocap.data.video.VideoFrames`).
+
+    seq = load_video_sequence("../shared/data/pose2sim-demo", start=0, stop=100, step=2,
+                              scale=0.25, segmentation={"method": "keypoint_grabcut"})
+
+Videos are matched to cameras by name like keypoint folders (``cam01.mp4`` <-> ``cam_01``).
+The rig is the calibration scaled by ``scale``; keypoints (when a folder is given) are
+rescaled to it and renumbered to the selected frames. Masks come from a sequence folder made
+by ``experiments/segment.py`` (``masks=``) or are computed at load time (``segmentation=``,
+see :func:`mocap.data.segmentation.segment_sequence`).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from mocap.cameras import load_calibration
+from mocap.data.openpose import _find_calibration, load_openpose_sequence
+from mocap.data.sequence import Detections, Sequence
+from mocap.data.video import VideoFrames, frame_range, video_info
+
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")
+
+
+def _key(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", name.lower())
+
+
+def match_videos(camera_names, folder: Path) -> list[Path]:
+    """The video file of each camera (by name, ignoring case and separators)."""
+    if not folder.is_dir():
+        raise FileNotFoundError(f"video folder not found: {folder}")
+    files = {_key(p.stem): p for p in sorted(folder.iterdir()) if p.suffix.lower() in VIDEO_SUFFIXES}
+    missing = [n for n in camera_names if _key(n) not in files]
+    if missing:
+        raise FileNotFoundError(f"{folder}: no video for cameras {missing} (videos: "
+                                f"{sorted(p.name for p in files.values())})")
+    return [files[_key(n)] for n in camera_names]
+
+
+def rescale_detections(det: Detections, frames: list[int], sx: float, sy: float) -> Detections:
+    """Keep detections of source ``frames`` (renumbered 0..), pixel coordinates scaled by
+    (sx, sy) in OpenCV's pixel-centre convention."""
+    index = {n: i for i, n in enumerate(frames)}
+    keep = np.array([f in index for f in det.frame], bool)
+    xy = det.xy[keep].copy()
+    xy[:, 0] = sx * (xy[:, 0] + 0.5) - 0.5
+    xy[:, 1] = sy * (xy[:, 1] + 0.5) - 0.5
+    return Detections(det.labels, np.array([index[f] for f in det.frame[keep]], np.int64),
+                      det.view[keep], det.label[keep], xy, det.confidence[keep])
+
+
+def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration: str | None = None,
+                        keypoints: str | None = "pose", layout: str = "BODY_25B",
+                        person: str = "subject", fps: float | None = None, start: int = 0,
+                        stop: int | None = None, step: int = 1, scale: float = 1.0,
+                        size_tolerance: float = 0.02, masks: str | None = None,
+                        segmentation: Mapping | None = None, name: str | None = None) -> Sequence:
+    """A :class:`Sequence` with lazy video images, the scaled rig, keypoint detections (if
+    ``keypoints``) and masks (if ``masks`` or ``segmentation``)."""
+    root = Path(path)
+    if not root.is_dir():
+        raise FileNotFoundError(f"recording folder not found: {root}")
+    calib = root / calibration if calibration is not None else _find_calibration(root)
+    full_rig = load_calibration(calib)
+    paths = match_videos(full_rig.names, root / videos)
+    total = min(video_info(p).frames for p in paths)
+    frames = frame_range(total, start, stop, step)
+    images = VideoFrames(paths, [tuple(s) for s in full_rig.sizes], frames, scale,
+                         names=full_rig.names, size_tolerance=size_tolerance)
+    rig = full_rig.scaled(scale)
+    W, H = (int(x) for x in full_rig.sizes[0])
+    w, h = images.width, images.height
+    fps = float(fps) if fps else images.infos[0].fps
+    det = None
+    if keypoints:
+        op = load_openpose_sequence(root, calibration=calibration, keypoints=keypoints, layout=layout,
+                                    fps=fps, person=person)
+        first = op.meta["first_frame"]
+        det = rescale_detections(op.detections, [n - first for n in frames], w / W, h / H)
+    meta = {"source": str(root), "calibration": str(calib), "videos": [str(p) for p in paths],
+            "source_frames": frames, "scale": float(scale), "layout": layout, "person": person}
+    seq = Sequence(name=name or root.name, rig=rig, fps=fps / step, images=images, detections=det,
+                   meta=meta)
+    if masks is not None:
+        seq = replace(seq, masks=masks_from_folder(Path(masks), seq))
+    elif segmentation is not None:
+        from mocap.data.segmentation import segment_sequence
+
+        seg = segment_sequence(seq, **dict(segmentation))
+        seq = replace(seq, masks=seg.masks, meta={**meta, "segmentation": seg.info})
+    return seq
+
+
+def masks_from_folder(folder: Path, seq: Sequence) -> np.ndarray:
+    """(F, C, H, W) bool masks of a segmented sequence folder, checked against ``seq``."""
+    from mocap.data.sequence_io import load_sequence
+
+    seg = load_sequence(folder, images=False)
+    if seg.masks is None:
+        raise ValueError(f"{folder}: the sequence folder has no masks")
+    src = seg.meta.get("source_frames")
+    want = seq.meta.get("source_frames")
+    if src is not None and want is not None and list(src) != list(want):
+        raise ValueError(f"{folder}: masks are for source frames {src[:3]}...{src[-1]} "
+                         f"({len(src)}), the sequence asks for {want[:3]}...{want[-1]} ({len(want)})")
+    if seg.masks.shape[1:] != (seq.num_views, seq.image_size[1], seq.image_size[0]):
+        raise ValueError(f"{folder}: masks are {seg.masks.shape[1:]} (C, H, W), the sequence needs "
+                         f"{(seq.num_views, seq.image_size[1], seq.image_size[0])}: same scale?")
+    return seg.masks
+
+
+def video_sequence(*, body=None, path: str, **options) -> Sequence:
+    """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused."""
+    return load_video_sequence(path, **options)
+
+
+def load_background_clip(folder: str | Path, seq: Sequence, max_frames: int = 60) -> np.ndarray:
+    """(B, C, H, W, 3) RGB frames of an empty-scene clip (one video per camera in ``folder``,
+    matched by name like the recording's), at ``seq``'s calibration and scale."""
+    folder = Path(folder)
+    meta = seq.meta
+    from mocap.cameras import load_calibration as _load
+
+    full = _load(meta["calibration"])
+    paths = match_videos(full.names, folder)
+    total = min(video_info(p).frames for p in paths)
+    step = max(1, total // max_frames)
+    frames = VideoFrames(paths, [tuple(s) for s in full.sizes], list(range(0, total, step)),
+                         meta.get("scale", 1.0), names=full.names)
+    return np.asarray(frames)
