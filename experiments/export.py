@@ -23,10 +23,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--format", required=True, help=f"one of: {', '.join(FORMATS)}")
     p.add_argument("--out", type=Path, default=None, help="output file (default: in the run directory)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
+    p.add_argument("--markers", default="landmarks", choices=["landmarks", "joints", "tracker"],
+                   help="TRC/C3D points: the body's landmarks, its joints, or a marker tracker's own")
     args = p.parse_args(argv)
     t = time.perf_counter()
     try:
-        out = export_run(args.run_dir, args.format, args.out, args.overwrite)
+        out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers)
     except (ValueError, FileNotFoundError, FileExistsError, MotionFileError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -62,8 +62,10 @@ def main(argv: list[str] | None = None) -> int:
     for d in args.sweep_dirs:
         got = collect(d)
         problems += got.problems
-        if got.runs:
-            rows += summarise(got.runs, factor_of(got.runs))
+        runs = [r for r in got.runs if "mpjpe_mm" in r]      # collect() also keeps runs without ground truth
+        problems += [(r["_dir"], "no ground truth (no mpjpe_mm)") for r in got.runs if "mpjpe_mm" not in r]
+        if runs:
+            rows += summarise(runs, factor_of(runs))
     if not rows:
         print("no runs found", file=sys.stderr)
         return 1

@@ -10,11 +10,12 @@ FORMATS = {"bvh": ".bvh", "trc": ".trc", "gltf": ".glb", "c3d": ".c3d"}
 
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
-               overwrite: bool = False, body=None) -> Path:
+               overwrite: bool = False, body=None, markers: str = "landmarks") -> Path:
     """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
     ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
-    (``.hydra/config.yaml``). Written to a temporary file and renamed; an existing output is
-    kept unless ``overwrite``."""
+    (``.hydra/config.yaml``). ``markers`` (TRC, C3D): landmarks (the body's default set),
+    joints, or tracker (a marker tracker's own landmarks). Written to a temporary file and
+    renamed; an existing output is kept unless ``overwrite``."""
     from mocap.export.motion import load_motion
 
     if fmt not in FORMATS:
@@ -33,10 +34,10 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
             write_bvh(motion, tmp)
         elif fmt == "trc":
             from mocap.export.trc import write_trc
-            write_trc(motion, tmp, file_name=out.name)
+            write_trc(motion, tmp, which=markers, file_name=out.name)
         elif fmt == "c3d":
             from mocap.export.c3d import write_c3d
-            write_c3d(motion, tmp)
+            write_c3d(motion, tmp, which=markers)
         else:
             from mocap.export.gltf import write_gltf
             write_gltf(motion, tmp, body if body is not None else run_body(run_dir, motion))

@@ -13,8 +13,16 @@ from mocap.export.motion import Motion
 def write_c3d(motion: Motion, path: str | Path, which: str = "landmarks") -> Path:
     import ezc3d
 
-    names, pts = ((motion.landmark_names, motion.landmarks) if which == "landmarks"
-                  else (motion.joint_names, motion.joints))
+    if which == "tracker":
+        if "tracker_landmarks" not in motion.per_frame:
+            raise ValueError("this run's tracker reported no landmarks of its own (marker runs do)")
+        names = tuple(str(n) for n in motion.per_frame["tracker_landmark_names"])
+        pts = motion.per_frame["tracker_landmarks"]
+    elif which in ("landmarks", "joints"):
+        names, pts = ((motion.landmark_names, motion.landmarks) if which == "landmarks"
+                      else (motion.joint_names, motion.joints))
+    else:
+        raise ValueError(f"which must be 'landmarks', 'joints' or 'tracker', got {which!r}")
     F, L = len(pts), len(names)
     c = ezc3d.c3d()
     c["parameters"]["POINT"]["RATE"]["value"] = [float(motion.fps)]

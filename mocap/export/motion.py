@@ -27,6 +27,9 @@ J joints, L landmarks, D DOFs, K shape coefficients; world metres, Z up, float64
     body, model_hash, tracker, data, run_id, seed     provenance (model_hash: SHA-1 of the
                                             body model's arrays, 12 hex digits)
     vertices (F, V, 3) float32, faces (T, 3)          optional (``vertices=True``)
+    tracker_landmarks (F, L', 3) float32, tracker_landmark_names (L',)   the landmarks a
+                                            marker tracker fitted (named after the detection
+                                            labels; NaN on frames it did not report, e.g. 0)
 
 :func:`load_motion` returns a frozen :class:`Motion`; :func:`decisions` is the one place that
 reads a tracker's diagnostics.
@@ -110,6 +113,8 @@ def decisions(diagnostics) -> dict:
         "lost": bool(_get(d, "lost", False)),
         "reprojection_px": float("nan") if rep is None else float(rep),
         "weak_landmarks": list(_get(d, "weak_landmarks", None) or []),
+        "landmarks": _get(d, "landmarks"),
+        "landmark_names": list(_get(d, "landmark_names", None) or []),
     }
 
 
@@ -192,6 +197,13 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
     for key in ("tracker", "data", "run_id"):
         out[key] = np.array(str((info or {}).get(key, "")))
     out["seed"] = np.int64((info or {}).get("seed", -1))
+    tnames = _union([d["landmark_names"] for d in dec if d["landmarks"] is not None])
+    if tnames:                 # the tracker's own landmarks (marker runs; NaN where not reported)
+        tl = np.full((F, len(tnames), 3), np.nan, np.float32)
+        for f, d in enumerate(dec):
+            if d["landmarks"] is not None:
+                tl[f, [tnames.index(n) for n in d["landmark_names"]]] = np.asarray(d["landmarks"])
+        out["tracker_landmarks"], out["tracker_landmark_names"] = tl, np.array(tnames, dtype=str)
     if verts is not None:
         out["vertices"], out["faces"] = verts, np.asarray(body.faces)
     return out
@@ -215,7 +227,8 @@ def write_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
     return path
 
 
-PER_FRAME = ("energy", "energy_term_names", "energy_terms", "energy_evaluations", "seconds",
+PER_FRAME = ("tracker_landmarks", "tracker_landmark_names",
+             "energy", "energy_term_names", "energy_terms", "energy_evaluations", "seconds",
              "apf_called", "limb_names", "limb_errors", "misaligned", "initial", "lost",
              "reprojection_px", "weak_landmark_names", "weak_landmarks")
 INFO = ("body", "model_hash", "tracker", "data", "run_id", "seed")

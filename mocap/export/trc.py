@@ -9,8 +9,9 @@ millimetres, Y up with Pose2Sim's axis permutation, ``axes.OPENSIM_FROM_WORLD``)
     <blank line>
     1  0.000000  x  y  z ...        (frames numbered from 1)
 
-The markers are the run's landmarks (``landmarks``: the body's default landmark set) or, with
-``which="joints"``, its joints.
+The markers are the run's landmarks (``landmarks``: the body's default landmark set), its
+joints (``which="joints"``) or the landmarks a marker tracker fitted, named after the
+detection labels (``which="tracker"``; blank where not reported, e.g. frame 0).
 """
 
 from __future__ import annotations
@@ -28,8 +29,13 @@ def trc_text(motion: Motion, which: str = "landmarks", file_name: str = "motion.
         names, pts = motion.landmark_names, motion.landmarks
     elif which == "joints":
         names, pts = motion.joint_names, motion.joints
+    elif which == "tracker":
+        if "tracker_landmarks" not in motion.per_frame:
+            raise ValueError("this run's tracker reported no landmarks of its own (marker runs do)")
+        names = tuple(str(n) for n in motion.per_frame["tracker_landmark_names"])
+        pts = motion.per_frame["tracker_landmarks"]
     else:
-        raise ValueError(f"which must be 'landmarks' or 'joints', got {which!r}")
+        raise ValueError(f"which must be 'landmarks', 'joints' or 'tracker', got {which!r}")
     F, L = len(pts), len(names)
     mm = 1e3 * points_to(OPENSIM_FROM_WORLD, pts)
     fps = f"{motion.fps:.2f}"

@@ -69,3 +69,22 @@ def test_interrupted_write_leaves_no_motion_file(tmp_path, body, monkeypatch):
         load_motion(tmp_path)
     with pytest.raises(MotionFileError, match="not found"):
         load_motion(tmp_path / "nothing")
+
+
+def test_marker_tracker_landmarks_are_kept_and_exported(tmp_path, body):
+    from mocap.export.trc import trc_text
+
+    ests = _estimates(body)
+    pts = np.arange(6, dtype=float).reshape(2, 3)
+    ests = [ests[0]] + [Estimate(e.chi, e.alpha, {**e.diagnostics, "landmarks": pts + f,
+                                                   "landmark_names": ["LHeel", "RHeel"]})
+                        for f, e in enumerate(ests[1:], start=1)]
+    m = load_motion(write_motion(tmp_path / "motion.npz", motion_arrays(body, ests, [0, 0, 0], 25.0)))
+    tl = m.per_frame["tracker_landmarks"]
+    assert list(m.per_frame["tracker_landmark_names"]) == ["LHeel", "RHeel"]
+    assert np.isnan(tl[0]).all() and np.array_equal(tl[2], pts + 2)
+    rows = trc_text(m, which="tracker").split("\n")
+    assert rows[3].startswith("Frame#\tTime\tLHeel\t\t\tRHeel")
+    assert rows[6].split("\t")[2:] == [""] * 6                        # frame 0: not reported
+    # OpenSim axes (y, z, x) in mm: landmark LHeel at frame 1 = (1, 2, 3) m -> (2000, 3000, 1000)
+    assert [float(v) for v in rows[7].split("\t")[2:5]] == [2000.0, 3000.0, 1000.0]
