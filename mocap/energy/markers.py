@@ -32,6 +32,7 @@ plus the coherence terms over the same count.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -42,7 +43,27 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import ShapedBody
 from mocap.cameras import Rig, fundamental_matrices, undistort_points
 from mocap.data.sequence import Detections
-from mocap.energy.marker_kernel import landmark_points, view_costs_fused
+
+try:                                    # the compiled kernels need numba; numpy is the fallback
+    from mocap.energy.marker_kernel import landmark_points, view_costs_fused
+    HAVE_NUMBA = True
+except ImportError:                     # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
+    landmark_points = view_costs_fused = None
+    HAVE_NUMBA = False
+
+_warned = False
+
+
+def compiled_available() -> bool:
+    """True when the compiled marker kernels can be used; warns once when they cannot."""
+    global _warned
+    if HAVE_NUMBA:
+        return True
+    if not _warned:
+        warnings.warn("numba is not installed: the marker likelihood runs on the slower numpy "
+                      "reference (same energies)", RuntimeWarning, stacklevel=3)
+        _warned = True
+    return False
 
 
 @dataclass(frozen=True)
@@ -237,8 +258,9 @@ class MarkerEnergy:
     F: (C, C, 3, 3) the rig's fundamental matrices (computed when None); predicted: (L, 3)
     predicted landmark positions (for coherence); weak: (L,) bool landmarks that get the
     coherence term. Forward kinematics and view costs run in the compiled kernels of
-    :mod:`mocap.energy.marker_kernel` (float64); ``compiled=False`` uses the numpy reference
-    (:func:`view_costs`, in the body's dtype).
+    :mod:`mocap.energy.marker_kernel` (float64); ``compiled=False``, or a machine without
+    numba (said once, as a warning), uses the numpy reference (:func:`view_costs`, in the
+    body's dtype).
     """
 
     def __init__(self, landmarks: LandmarkSet, shaped: ShapedBody, rig: Rig, obs: MarkerObservation,
@@ -247,7 +269,7 @@ class MarkerEnergy:
                  compiled: bool | None = None, rest_offsets: np.ndarray | None = None):
         self.landmarks, self.shaped, self.rig, self.obs, self.settings = landmarks, shaped, rig, obs, settings
         self.F = fundamental_matrices(rig) if F is None else F
-        self.compiled = settings.compiled if compiled is None else compiled
+        self.compiled = (settings.compiled if compiled is None else compiled) and compiled_available()
         tables = EpipolarTables.build(obs, rig, self.F)
         L, C, K, _ = obs.xy.shape
         if self.compiled:

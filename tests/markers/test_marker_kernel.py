@@ -45,3 +45,24 @@ def test_compiled_costs_match_the_numpy_likelihood(body64, scene, gate):
     a, b = fast.landmark_costs(chi), ref.landmark_costs(chi)
     assert np.ptp(b) > 0 and (b < gate**2 / (len(lms) * len(rig))).any()
     np.testing.assert_allclose(a, b, rtol=1e-7, atol=1e-9)
+
+
+def test_without_numba_the_likelihood_falls_back_to_numpy_and_says_so_once(body64, scene, monkeypatch):
+    import warnings
+
+    from mocap.energy import markers
+
+    seq, lms, obs, rig = scene
+    shaped = body64.shaped(seq.gt.alpha)
+    chi = seq.gt.chi[1] + np.random.default_rng(2).normal(0, 0.05, (20, body64.num_dofs))
+    s = MarkerLikelihood(gate_px=30.0)
+    compiled = MarkerEnergy(lms, shaped, rig, obs, s)
+    monkeypatch.setattr(markers, "HAVE_NUMBA", False)
+    monkeypatch.setattr(markers, "_warned", False)
+    with pytest.warns(RuntimeWarning, match="numba is not installed"):
+        first = MarkerEnergy(lms, shaped, rig, obs, s)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        second = MarkerEnergy(lms, shaped, rig, obs, s)
+    assert compiled.compiled and not first.compiled and not second.compiled
+    np.testing.assert_allclose(first(chi), compiled(chi), rtol=1e-7, atol=1e-9)
