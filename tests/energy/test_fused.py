@@ -43,18 +43,21 @@ def test_fused_equals_the_numpy_path(dtype, request):
     assert np.all(a[-1] == 2 * np.hypot(*target.size))       # empty: penalty for both terms
 
 
-def test_fused_equals_brute_force_eq11(body64):
+@pytest.mark.parametrize("dtype", ["body", "body64"])
+def test_fused_equals_brute_force_eq11(dtype, request):
     """Eq. 11 literally, exact transforms over the whole image: the fused energy differs only by
-    the 5x5 chamfer approximation of D^p (Borgefors, within ~2 %) and the box margin."""
-    rig, sb, target, chi, _ = scene(body64, particles=5)
+    the 5x5 chamfer approximation of D^p (Borgefors, within ~2 %) and the box margin; float32
+    and float64 bodies."""
+    body = request.getfixturevalue(dtype)
+    rig, sb, target, chi, _ = scene(body, particles=5)
     compiled = SilhouetteEnergy(sb, rig, scale=1.0, backend="numba")
     got = compiled.per_view(chi[:-1], target)
     px, depth = project(rig, sb.pose(chi[:-1]).vertices, return_depth=True)
     h, w = target.size
     for p in range(len(chi) - 1):
         for c in range(len(rig)):
-            keep = (depth[p, c][body64.faces] > 0.05).all(axis=1)
-            model = rasterize_reference(px[p, c], body64.faces, h, w, keep)
+            keep = (depth[p, c][body.faces] > 0.05).all(axis=1)
+            model = rasterize_reference(px[p, c], body.faces, h, w, keep)
             obs = target.masks[c]
             Dp, D = distance_transform_edt(~model), distance_transform_edt(~obs)
             ref = (np.abs(Dp - D)[model].sum() / model.sum() + np.abs(Dp - D)[obs].sum() / obs.sum())
