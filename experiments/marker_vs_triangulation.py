@@ -17,7 +17,12 @@ without offsets, in mm, mean over keypoints and frames 1..F-1:
   (every pair of candidates a hypothesis, most inliers within the gate wins, re-triangulated
   from its inliers); landmarks it cannot triangulate are left out (its coverage is printed);
 * ``marker_apf`` variants: the tracker (conf/tracker/marker_apf.yaml) started by its own
-  start-up on frame 0; ``refine``: with 3 Gauss-Newton steps (mocap/trackers/marker_refine.py).
+  start-up on frame 0; ``refine``: with 3 Gauss-Newton steps (mocap/trackers/marker_refine.py);
+  ``refine_noconf``: the same without confidence weights; ``refine_offsets``: plus keypoint
+  offsets learned over 10 frames. The tracker's error is that of its landmarks without the
+  learned offsets (the offsets model where the detector marks a landmark; the truth is the
+  landmark itself), so triangulation, which sees only the detector's points, keeps the
+  offsets in its error.
 Writes one JSON row per (motion, seed, method) and prints the table.
 """
 
@@ -153,9 +158,9 @@ def main() -> None:
                 idx = [names.index(n) for n in lms.names]
                 chis = np.stack([e.chi for e in res.estimates[1:]])
                 shaped = body.shaped(alpha)
+                # the tracker's landmarks (our joints), without the learned keypoint offsets: the
+                # truth is the landmark, the offsets only model where the detector marks it
                 rest = lms.rest_points(shaped).astype(np.float64)
-                if trk.offsets is not None:
-                    rest = rest + trk.offsets
                 est = lms.from_transforms(shaped.pose(chis).transforms.astype(np.float64), rest)
                 err = 1e3 * float(np.linalg.norm(est - truth[1:, idx], axis=-1).mean())
                 rows.append({"motion": motion, "seed": seed, "method": f"marker_apf:{variant}",
