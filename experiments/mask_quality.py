@@ -1,5 +1,5 @@
 """Mask quality on the Pose2Sim demo: IoU of each segmentation method against the hand-checked
-reference silhouettes in data/pose2sim_demo_reference (see experiments/reference_masks.py).
+reference silhouettes in tests/data/pose2sim_demo_reference (see experiments/reference_masks.py).
 
     python experiments/mask_quality.py [demo folder] [out.json]
 
@@ -22,7 +22,7 @@ from mocap.data.segmentation import iou, segment_sequence
 from mocap.data.video_sequence import load_video_sequence
 
 REPO = Path(__file__).resolve().parents[1]
-REF = REPO / "data" / "pose2sim_demo_reference"
+REF = REPO / "tests" / "data" / "pose2sim_demo_reference"
 
 METHODS = {
     "median": dict(method="median", keypoints=False),

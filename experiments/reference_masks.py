@@ -15,6 +15,8 @@ strokes and areas override it. The result is downscaled (area > 0.5) to 272x480 
 Polygons, strokes and areas were placed and corrected by looking at zoomed overlays of each
 result until the outline followed the subject (20 masks: frames 0, 20, 40, 60, 80 x 4 views).
 No keypoints, no background model and none of mocap.data.segmentation's code are involved.
+A later check of the overlays found three shins left out (cam_02_0040, cam_03_0060,
+cam_04_0060: thin limbs the first polygon missed); each got its own outline polygon.
 """
 
 from __future__ import annotations
