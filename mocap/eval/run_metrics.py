@@ -9,7 +9,27 @@ from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.metrics import mmta_mmtp
+from mocap.eval.mismatch import LOST_MM, fit_oracle, mismatch_metrics
 from mocap.trackers.base import Estimate
+
+
+def _valid(gt, F: int):
+    return None if gt.joint_valid is None else gt.joint_valid[:F]
+
+
+_ORACLES: dict = {}
+
+
+def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None) -> dict:
+    """The oracle's metrics (:func:`mocap.eval.mismatch.fit_oracle`) on the first ``frames``
+    frames of ``seq``'s ground truth (all: None), computed once per body and sequence in a process."""
+    gt = seq.gt
+    F = gt.num_frames if frames is None else frames
+    key = (body.name, body.num_dofs, seq.name, F, float(np.nansum(gt.joints[:F])))
+    if key not in _ORACLES:
+        _ORACLES[key] = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F),
+                                   gt.skeleton or None).metrics
+    return _ORACLES[key]
 
 
 def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], seconds: list[float]) -> dict:
@@ -17,7 +37,10 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
 
     estimates: one per frame, frame 0 being the initialisation; seconds: step time per frame.
     Keys: mpjpe_mm, mpjpe_std_mm, per_joint_mm, per_frame_mm, mpjpe_root_aligned_mm, pcp,
-    pcp_per_limb (with ground truth, joints matched by name: :mod:`mocap.eval.by_name`), mmta,
+    pcp_per_limb (with ground truth, joints matched by name: :mod:`mocap.eval.by_name`),
+    frames_lost (after frame 0, raw error above 150 mm); for ground truth by name only (data our
+    model did not generate) ``mismatch`` (raw / offset-removed / limb errors) and ``oracle`` (the
+    same for our body fitted to the true joints: :mod:`mocap.eval.mismatch`); mmta,
     mmtp_mm (when ground-truth markers match the default landmark set); without ground truth but
     with detections, the keypoint metrics of :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics`
     (reprojection error per view, bone-length stability, jitter); sec_per_frame,
@@ -30,8 +53,15 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], secon
         chis = np.stack([e.chi for e in estimates])
         alpha = estimates[-1].alpha
         shaped = body.shaped(alpha)
-        scores = NameScorer(body, seq.gt).metrics(shaped, chis)     # joints matched by name
+        scorer = NameScorer(body, seq.gt)
+        scores = scorer.metrics(shaped, chis)     # joints matched by name
         out.update({k: v for k, v in scores.items() if k not in ("scored", "unscored")})
+        out["frames_lost"] = int(np.sum(np.asarray(scores["per_frame_mm"][1:]) > LOST_MM))
+        if seq.gt.chi is None and {"l_hip", "r_hip"} <= set(scorer.mapping.values()):
+            # data our model did not generate: errors fair under mismatch, and the floor
+            out["mismatch"] = mismatch_metrics(scorer.points(shaped, chis), seq.gt.joint_names,
+                                               seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
+            out["oracle"] = oracle_metrics(body, seq, F)
         if scores["unscored"]:
             out["unscored_joints"] = scores["unscored"]
         landmarks = LandmarkSet(body)
