@@ -6,7 +6,7 @@
                     positives, Poisson with mean ``false_positive_rate`` x markers, placed
                     uniformly in the subject's bounding box (grown by 30 %) with a random label.
 ``SilhouetteNoise`` background-subtraction errors: erosion/dilation of the outline, spurious
-                    blobs, holes, and missing body parts.
+                    blobs, holes, missing body parts, and a cast shadow at the feet.
 """
 
 from __future__ import annotations
@@ -64,10 +64,14 @@ class SilhouetteNoise:
     holes: float = 0.0          # mean number of holes inside the silhouette per view
     missing_part: float = 0.0   # probability that a view loses a rectangle of the body
     blob_radius_px: float = 12.0
+    shadow: float = 0.0         # probability that a view gets a cast shadow: a filled ellipse
+                                # attached at the lowest part of the silhouette (the feet)
+    shadow_size: float = 0.6    # the shadow's width, as a fraction of the silhouette's width
 
     @property
     def active(self) -> bool:
-        return bool(self.dilate_px or self.erode_px or self.blobs or self.holes or self.missing_part)
+        return bool(self.dilate_px or self.erode_px or self.blobs or self.holes or self.missing_part
+                    or self.shadow)
 
     def apply(self, mask: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """A noisy copy of one (H, W) bool silhouette."""
@@ -95,4 +99,12 @@ class SilhouetteNoise:
                 bw, bh = int((x1 - x0) * rng.uniform(0.2, 0.4)), int((y1 - y0) * rng.uniform(0.1, 0.25))
                 cx, cy = int(rng.uniform(x0, x1)), int(rng.uniform(y0, y1))
                 m[max(0, cy - bh // 2):cy + bh // 2, max(0, cx - bw // 2):cx + bw // 2] = 0
+            if self.shadow and rng.random() < self.shadow:
+                # centred on the lowest silhouette pixels, flattened like a shadow on the floor
+                low = ys >= y1 - max(2, int(0.03 * (y1 - y0)))
+                cx = int(xs[low].mean() + rng.normal(0, 0.05) * (x1 - x0))
+                ax = max(3, int(self.shadow_size * (x1 - x0 + 1) * rng.uniform(0.6, 1.2) / 2))
+                ay = max(2, int(ax * rng.uniform(0.2, 0.4)))
+                ang = float(rng.uniform(-20, 20))
+                cv2.ellipse(m, (cx, int(y1)), (ax, ay), ang, 0, 360, 1, -1)
         return m.astype(bool)

@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from collections.abc import Sequence as Sequence_
+from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.cameras import rig_from_config
+from mocap.data.corruption import SilhouetteNoise
 from mocap.data.generate import make_synthetic
-from mocap.data.sequence import Sequence
+from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import load_sequence
 
 
@@ -20,9 +25,62 @@ def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, 
                           **options)
 
 
-def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None) -> Sequence:
-    """A sequence folder written by ``experiments/make_dataset.py`` (or converted data)."""
+REPO = Path(__file__).resolve().parents[2]
+
+
+def resolve_data_path(path: str | Path) -> Path:
+    """``path`` as given when it exists (absolute, or relative to the working directory),
+    else relative to the repository root (so ``data/mismatch/walk`` works from anywhere)."""
     p = Path(path)
+    if p.is_dir() or p.is_absolute() or not (REPO / p).is_dir():
+        return p
+    return REPO / p
+
+
+def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
+                    views: Sequence_[int | str] | None = None,
+                    silhouette_noise: Mapping | None = None, seed: int = 0) -> Sequence:
+    """A sequence folder written by ``experiments/make_dataset.py`` (or converted data).
+
+    path: the folder (relative paths: the working directory, else the repository root).
+    views: keep only these views (indices or camera names, in this order), e.g. [0, 2, 4, 6].
+    silhouette_noise: options of :class:`mocap.data.corruption.SilhouetteNoise` applied to
+    every mask, deterministically for ``seed`` (the same seed gives the same masks).
+    """
+    p = resolve_data_path(path)
     if not p.is_dir():
         raise FileNotFoundError(f"data path not found: {p}")
-    return load_sequence(p, images=images)
+    seq = load_sequence(p, images=images)
+    changes: dict = {}
+    if name:
+        changes["name"] = str(name)
+    if views is not None:
+        idx = [seq.rig.index(v) if isinstance(v, str) else int(v) for v in views]
+        if not idx or len(set(idx)) != len(idx) or min(idx) < 0 or max(idx) >= seq.num_views:
+            raise ValueError(f"{p}: views must be distinct indices in [0, {seq.num_views}) or "
+                             f"names of {list(seq.rig.names)}, got {list(views)}")
+        changes.update(rig=seq.rig[idx],
+                       masks=None if seq.masks is None else seq.masks[:, idx],
+                       images=None if seq.images is None else seq.images[:, idx],
+                       detections=None if seq.detections is None else _keep_views(seq.detections, idx))
+    masks = changes.get("masks", seq.masks)
+    if silhouette_noise and masks is not None:
+        noise = SilhouetteNoise(**dict(silhouette_noise))
+        if noise.active:
+            rng = np.random.default_rng([int(seed), 7])
+            changes["masks"] = np.stack([np.stack([noise.apply(m, rng) for m in frame])
+                                         for frame in masks])
+        changes["meta"] = {**seq.meta, "silhouette_noise": dict(silhouette_noise),
+                           "noise_seed": int(seed)}
+    if views is not None:
+        changes.setdefault("meta", dict(seq.meta))["views"] = list(changes["rig"].names)
+    return replace(seq, **changes) if changes else seq
+
+
+def _keep_views(det: Detections, idx: list[int]) -> Detections:
+    new = np.full(int(max(det.view.max(initial=0), max(idx))) + 1, -1)
+    new[idx] = np.arange(len(idx))
+    keep = new[det.view] >= 0
+    return Detections(det.labels, det.frame[keep], new[det.view[keep]], det.label[keep],
+                      det.xy[keep], det.confidence[keep],
+                      None if det.person is None else det.person[keep])

