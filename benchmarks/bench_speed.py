@@ -46,12 +46,12 @@ BASELINE = REPO / "benchmarks" / "baseline_speed.json"
 
 # name -> (tracker config, Hydra overrides, uses images)
 TRACKERS = {
-    "local": ("local", ["tracker.sift.enabled=false"], False),
+    "local": ("local", ["+tracker.sift.enabled=false"], False),
     "local_sift": ("local", [], True),
     "apf_prior": ("apf_prior", [], False),
     "apf_25x10": ("apf_25x10", [], False),
     "apf": ("apf", [], False),
-    "hybrid": ("hybrid", ["tracker.local.sift.enabled=false"], False),
+    "hybrid": ("hybrid", ["+tracker.local.sift.enabled=false"], False),
 }
 
 
