@@ -44,6 +44,7 @@ from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import load_sequence
 from mocap.energy.markers import arrange_detections
+from mocap.eval.by_name import SKELETONS
 from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.marker_init import triangulate_candidates
 from mocap.trackers.marker_landmarks import make_landmark_set
@@ -136,8 +137,13 @@ def main() -> None:
             if args.mismatch:
                 seq = load_sequence(Path(args.mismatch) / motion, images=False)
                 rig = Rig(tuple(seq.rig)[:args.views])
-                names = [n for n in HUMANEVA if n in seq.gt.joint_names]
-                truth = seq.gt.joints[:args.frames, [seq.gt.joint_names.index(n) for n in names]]
+                # ground-truth names (HumanEva short names 'lsho', ... or ours) -> landmark names
+                to_ours = {**SKELETONS["humaneva15"], **{n: n for n in HUMANEVA}}
+                gt_names = [to_ours.get(str(n)) for n in seq.gt.joint_names]
+                names = [n for n in HUMANEVA if n in gt_names]
+                if len(names) < len(HUMANEVA):
+                    raise SystemExit(f"{motion}: ground truth lacks {sorted(set(HUMANEVA) - set(names))}")
+                truth = seq.gt.joints[:args.frames, [gt_names.index(n) for n in names]]
                 det = detect_points(rig, truth, names, args, np.random.default_rng([seed, 7]))
                 seq = Sequence(name=motion, rig=rig, fps=seq.fps, detections=det)
             else:
