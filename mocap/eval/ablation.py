@@ -145,8 +145,31 @@ def table_rows(runs: list[dict]) -> list[dict]:
         for extra in ("pcp", "mmta", "mmtp_mm", "apf_calls_per_frame", *(k for k, _ in NO_GT_METRICS)):
             if all(extra in r for r in rs):
                 row[extra] = float(np.mean([r[extra] for r in rs]))
+        _mismatch_cells(row, rs)
         rows.append(row)
     return rows
+
+
+# columns of data our model did not generate (metrics.json "mismatch" / "oracle", see
+# mocap.eval.mismatch): key -> (label, value of one run or None)
+MISMATCH_METRICS = {
+    "offset_removed_mm": ("offset-removed (mm)", lambda r: r.get("mismatch", {}).get("offset_removed_mm")),
+    "limbs_mm": ("limb joints (mm)", lambda r: r.get("mismatch", {}).get("limbs_mm")),
+    "oracle_mm": ("oracle (mm)", lambda r: r.get("oracle", {}).get("raw_mm")),
+    "x_oracle": ("× oracle", lambda r: (r["mpjpe_mm"] / r["oracle"]["raw_mm"]
+                                        if "oracle" in r and r["oracle"].get("raw_mm") else None)),
+    "frames_lost": ("frames lost", lambda r: r.get("frames_lost")),
+    "init_mm": ("init error (mm)", lambda r: (r["per_frame_mm"][0] if "init" in r and r.get("per_frame_mm")
+                                              else None)),
+    "init_seconds": ("init (s)", lambda r: r.get("init", {}).get("seconds")),
+}
+
+
+def _mismatch_cells(row: dict, rs: list[dict]) -> None:
+    for key, (_, get) in MISMATCH_METRICS.items():
+        vals = [get(r) for r in rs]
+        if vals and all(v is not None for v in vals):
+            row[key], row[key + "_std"] = _mean_std(vals)
 
 
 def _pm(mean: float, std: float | None) -> str:
@@ -157,16 +180,19 @@ def markdown(rows: list[dict], problems: list[tuple[str, str]], title: str) -> s
     extras = [(k, label) for k, label in (("pcp", "PCP"), ("apf_calls_per_frame", "APF calls / frame"),
                                           ("mmta", "MMTA"), ("mmtp_mm", "MMTP (mm)"), *NO_GT_METRICS)
               if any(k in r for r in rows)]
+    mism = [(k, label) for k, (label, _) in MISMATCH_METRICS.items() if any(k in r for r in rows)]
     show_over = any(r.get("overrides", "-") != "-" for r in rows)
     head = ["tracker", "data", *(["overrides"] if show_over else []), "particles x layers", "energy terms",
-            "seeds", "joint error (mm)", "s / frame", "energy evals / frame", *(label for _, label in extras)]
+            "seeds", "joint error (mm)", "s / frame", "energy evals / frame", *(label for _, label in extras),
+            *(label for _, label in mism)]
     out = [f"# {title}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         err = _pm(r["mpjpe_mean_mm"], r["mpjpe_std_mm"]) if "mpjpe_mean_mm" in r else "-"
         cells = [r["tracker"], r["data"], *([r["overrides"]] if show_over else []), r["particles_x_layers"],
                  r["energy_terms"], str(r["seeds"]), err, f"{r['sec_per_frame']:.2f}",
                  f"{r['energy_evals_per_frame']:.0f}",
-                 *(f"{r[k]:.2f}" if k in r else "-" for k, _ in extras)]
+                 *(f"{r[k]:.2f}" if k in r else "-" for k, _ in extras),
+                 *(_pm(r[k], r[k + "_std"]) if k in r else "-" for k, _ in mism)]
         out.append("| " + " | ".join(cells) + " |")
     if problems:
         out += ["", "## Runs that failed or are missing", ""]

@@ -9,8 +9,7 @@ from scipy.optimize import minimize
 from mocap.body import load_body
 from mocap.data.generate import subject_shape
 from mocap.data.motion import generate_motion
-from mocap.eval.mismatch import (LIMB_JOINTS, fit_oracle, geometric_median, heading_frames,
-                                 mismatch_metrics)
+from mocap.eval.mismatch import LIMB_JOINTS, fit_oracle, geometric_median, heading_frames, mismatch_metrics
 
 
 @pytest.fixture(scope="module")
