@@ -11,11 +11,13 @@ Stages (each a pure function on arrays, used by :func:`segment_sequence`):
    to the per-pixel median of a background clip, or of the sequence's own frames), or
    OpenCV's ``mog2`` / ``knn`` subtractors (trained on the clip or on the frames, then applied
    with learning rate 0; shadows count as background).
-2. :func:`keypoint_grabcut` - the subject's skeleton drawn from its detected keypoints is sure
-   foreground, everything outside the keypoints' enlarged box sure background, the background
-   model's answer inside the box "probable"; GrabCut settles the rest. The detections of a
+2. :func:`keypoint_grabcut` - the subject's skeleton drawn from its detected keypoints (limb
+   widths scaled by the person's size) is sure foreground, everything farther than a
+   body-shaped reach from the skeleton sure background, the background model's answer in
+   between "probable" (sure background only where the background is known: a masked-median
+   pixel seen away from the subject in enough frames); GrabCut settles the rest. The detections of a
    :class:`Sequence` loaded with ``person="subject"`` are the subject's only, so the
-   experimenter in the background falls outside the box or outside the skeleton's component.
+   experimenter in the background falls outside the reach or outside the skeleton's component.
 3. :func:`carve_views` - multi-view consistency: voxels of the subject's 3D box (from the
    triangulated keypoints) survive where they project into the foreground of every view (of
    all but ``tolerance`` views); each view keeps only the pixels covered by surviving voxels.
@@ -155,33 +157,52 @@ def keypoint_box(kp: dict[str, np.ndarray], shape: tuple[int, int],
             int(min(H, y1 + grow + 1)))
 
 
+def person_size(kp: dict[str, np.ndarray]) -> float:
+    """The person's size in pixels: the larger extent of its keypoints (about its height)."""
+    pts = np.array(list(kp.values()))
+    return float(max(np.ptp(pts[:, 1]), np.ptp(pts[:, 0]), 1.0))
+
+
+def body_region(kp: dict[str, np.ndarray], shape: tuple[int, int], fraction: float) -> np.ndarray:
+    """(H, W) bool: the skeleton with limbs ``fraction`` x the person's size thick, and a head
+    disc of half that radius: a body-shaped region that scales with the person."""
+    size = person_size(kp)
+    m = skeleton_mask(kp, shape, max(1, round(fraction * size))).view(np.uint8)
+    for name in ("head_top", "nose", "head"):
+        if name in kp:
+            cv2.circle(m, tuple(np.round(kp[name]).astype(int)), max(1, round(0.8 * fraction * size)), 1, -1)
+    return m.view(bool)
+
+
 def keypoint_grabcut(image: np.ndarray, kp: dict[str, np.ndarray], prior: np.ndarray | None,
-                     margin: float = 0.12, thickness_fraction: float = 0.012,
+                     reach: float = 0.35, limb_fraction: float = 0.015,
                      iterations: int = 4, sure_background: np.ndarray | None = None) -> np.ndarray:
     """(H, W) bool silhouette of the person with keypoints ``kp`` in ``image`` (H, W, 3) RGB.
 
-    prior: (H, W) bool background-model foreground (None: a thick skeleton stands in).
-    Sure foreground: the skeleton; sure background: outside the keypoints' box grown by
-    ``margin``; the rest probable foreground where ``prior`` says so, else probable background,
-    or sure background where ``sure_background`` (H, W) bool says so (off the skeleton).
+    Sizes scale with the person (:func:`person_size` of its keypoints, about its height):
+    sure foreground is the skeleton with limbs ``limb_fraction`` x size thick (the torso
+    polygon, a head disc); everything farther than ``reach`` x size from the skeleton is sure
+    background (the experimenter, ghosts elsewhere); in between, probable foreground where
+    ``prior`` (H, W) bool (the background model's foreground) says so, else probable
+    background, or sure background where ``sure_background`` (H, W) bool says so (off the
+    skeleton). prior None: a skeleton 3 x ``limb_fraction`` thick stands in.
     """
     H, W = image.shape[:2]
     if len(kp) < 3:
         return np.zeros((H, W), bool) if prior is None else prior.copy()
-    x0, y0, x1, y1 = keypoint_box(kp, (H, W), margin)
-    height = max(y1 - y0, 1)
-    sure = skeleton_mask(kp, (H, W), max(1, round(thickness_fraction * height)))
+    sure = body_region(kp, (H, W), limb_fraction)
+    region = body_region(kp, (H, W), reach)
     if prior is None:
-        prior = skeleton_mask(kp, (H, W), max(2, round(6 * thickness_fraction * height)))
+        prior = body_region(kp, (H, W), 3 * limb_fraction)
     gc = np.full((H, W), cv2.GC_BGD, np.uint8)
-    inside = np.zeros((H, W), bool)
-    inside[y0:y1, x0:x1] = True
-    gc[inside] = np.where(prior[inside], cv2.GC_PR_FGD, cv2.GC_PR_BGD)
+    gc[region] = np.where(prior[region], cv2.GC_PR_FGD, cv2.GC_PR_BGD)
     if sure_background is not None:
-        gc[inside & sure_background] = cv2.GC_BGD
-    gc[sure & inside] = cv2.GC_FGD
-    pad = max(8, height // 6)                     # GrabCut's background model sees the surround
-    cx0, cy0, cx1, cy1 = max(0, x0 - pad), max(0, y0 - pad), min(W, x1 + pad), min(H, y1 + pad)
+        gc[region & sure_background] = cv2.GC_BGD
+    gc[sure] = cv2.GC_FGD
+    ys, xs = np.nonzero(region)
+    pad = max(8, round(0.08 * person_size(kp)))  # GrabCut's background model sees the surround
+    cx0, cy0, cx1, cy1 = max(0, xs.min() - pad), max(0, ys.min() - pad), min(W, xs.max() + pad + 1), \
+        min(H, ys.max() + pad + 1)
     crop = np.ascontiguousarray(gc[cy0:cy1, cx0:cx1])
     if not ((crop == cv2.GC_BGD) | (crop == cv2.GC_PR_BGD)).any():
         crop[0, :] = cv2.GC_BGD
@@ -297,10 +318,10 @@ def subject_region(kp: dict[str, np.ndarray], shape: tuple[int, int], fraction: 
 
 def segment_sequence(seq: Sequence, method: str = "keypoint_grabcut", background: str = "masked_median",
                      background_source: str = "auto", background_clip: np.ndarray | None = None,
-                     threshold: float = 30.0, sure_threshold: float = 12.0, keypoints: bool = True,
+                     threshold: float = 30.0, sure_threshold: float = 5.0, keypoints: bool = True,
                      min_confidence: float = 0.3, multiview: bool = False, voxel: float = 0.025,
-                     carve_tolerance: int = 0, margin: float = 0.12, thickness_fraction: float = 0.012,
-                     iterations: int = 4, kernel: int = 3) -> SegmentationResult:
+                     carve_tolerance: int = 0, reach: float | None = None, limb_fraction: float = 0.015,
+                     min_seen: float = 0.2, iterations: int = 4, kernel: int = 3) -> SegmentationResult:
     """Masks (F, C, H, W) for ``seq``'s images (at the sequence's resolution).
 
     method: ``median`` / ``mog2`` / ``knn`` (background model only) or ``keypoint_grabcut``
@@ -308,7 +329,13 @@ def segment_sequence(seq: Sequence, method: str = "keypoint_grabcut", background
     ``median``, ``masked_median`` (the median over frames where the pixel is away from the
     subject's skeleton: no ghost of a subject that barely moves), ``mog2``, ``knn`` or
     ``none``. Colour distance above ``threshold`` is probable foreground, below
-    ``sure_threshold`` sure background (median models). keypoints=False drops the guidance
+    ``sure_threshold`` sure background (median models), but only where the background is
+    known: a masked-median pixel seen (away from the subject) in fewer than ``min_seen`` x
+    frames (at least 3) has no reliable background and is probable foreground near the
+    subject. reach / limb_fraction: see :func:`keypoint_grabcut` (fractions of the person's
+    size); reach None: 0.35 with a background model, 0.2 without one (``background='none'``:
+    with no background evidence the body-shaped region is what keeps the surround out).
+    keypoints=False drops the guidance
     (skeleton, box, GrabCut) even when detections exist. multiview: carve with the visual hull
     of the subject's 3D box (needs keypoints in >= 2 views).
     background_clip: (B, C, H, W, 3) RGB frames of the empty scene at the same resolution.
@@ -336,6 +363,8 @@ def segment_sequence(seq: Sequence, method: str = "keypoint_grabcut", background
         method_run = bg_model if bg_model in ("median", "mog2", "knn") else "median"
     else:
         method_run = method
+    if reach is None:
+        reach = 0.2 if bg_model == "none" else 0.35
     t0 = time.perf_counter()
     images = np.stack([np.asarray(seq.images[f]) for f in range(F)])          # (F, C, H, W, 3)
     t_read = time.perf_counter() - t0
@@ -347,16 +376,19 @@ def segment_sequence(seq: Sequence, method: str = "keypoint_grabcut", background
     if bg_model in ("median", "masked_median"):
         sure_bg = np.zeros((F, C, H, W), bool)
         for c in range(C):
+            known = np.ones((H, W), bool)
             if use_clip:
                 bg = median_background(np.asarray(background_clip)[:, c])
             elif bg_model == "masked_median":
                 hide = np.stack([subject_region(kps[f][c], (H, W)) for f in range(F)])
                 bg, _ = masked_median_background(images[:, c], hide)
+                known = (~hide).sum(0) >= max(3, min_seen * F)
             else:
                 bg = median_background(images[:, c])
             for f in range(F):
                 d = colour_distance(images[f, c], bg)
-                prior[f, c], sure_bg[f, c] = d > threshold, d < sure_threshold
+                prior[f, c] = (d > threshold) | ~known
+                sure_bg[f, c] = (d < sure_threshold) & known
     elif bg_model in ("mog2", "knn"):
         for c in range(C):
             train = np.asarray(background_clip)[:, c] if use_clip else images[:, c]
@@ -369,17 +401,14 @@ def segment_sequence(seq: Sequence, method: str = "keypoint_grabcut", background
             kp = kps[f][c]
             if method_run == "keypoint_grabcut" and len(kp) >= 3:
                 raw = keypoint_grabcut(images[f, c], kp, prior[f, c] if bg_model != "none" else None,
-                                       margin, thickness_fraction, iterations,
+                                       reach, limb_fraction, iterations,
                                        None if sure_bg is None else sure_bg[f, c])
             else:
                 raw = prior[f, c]
             anchor = None
             if len(kp) >= 3:
-                x0, y0, x1, y1 = keypoint_box(kp, (H, W), margin)
                 anchor = skeleton_mask(kp, (H, W), 1)
-                box = np.zeros((H, W), bool)
-                box[y0:y1, x0:x1] = True
-                raw = raw & box
+                raw = raw & body_region(kp, (H, W), reach)
             masks[f, c] = clean_mask(raw, anchor, kernel)
         if multiview and guided:
             box3 = subject_box(seq.rig, kps[f])
@@ -391,7 +420,7 @@ def segment_sequence(seq: Sequence, method: str = "keypoint_grabcut", background
     seconds = time.perf_counter() - t0
     info = {"method": method_run, "background": bg_model,
             "background_source": "clip" if use_clip else "frames", "keypoints": bool(guided),
-            "multiview": bool(multiview and guided), "threshold": threshold,
+            "multiview": bool(multiview and guided), "threshold": threshold, "reach": reach,
             "resolution": [W, H], "frames": F, "views": C,
             "seconds_per_frame_per_view": seconds / (F * C),
             "decode_seconds_per_frame_per_view": t_read / (F * C)}
