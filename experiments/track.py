@@ -29,6 +29,7 @@ from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
 from mocap.threads import resolve_threads
+from mocap.trackers.init_cache import initial_estimate
 from mocap.trackers.run import frame_of, noisy_initial_pose, search_budget, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
@@ -79,8 +80,9 @@ def main(cfg: DictConfig) -> None:
     if cfg.init.mode == "tracker":
         if not hasattr(tracker, "initial_estimate"):
             raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
-        init, alpha = tracker.initial_estimate(frame_of(seq, 0))
+        init, alpha, init_info = initial_estimate(tracker, frame_of(seq, 0), cfg.init.get("cache"))
     else:
+        init_info = {}
         init = noisy_initial_pose(body, seq.gt.chi[0], rng, cfg.init.noise_deg, cfg.init.noise_translation)
         alpha = seq.gt.alpha
     F = seq.num_frames if cfg.frames is None else min(int(cfg.frames), seq.num_frames)
@@ -119,6 +121,7 @@ def main(cfg: DictConfig) -> None:
         "tracker": tracker.name, "seed": int(cfg.seed), "data": seq.name,
         **run_metrics(body, seq, result.estimates, result.seconds),
         **search_budget(tracker),
+        **({"init": init_info} if init_info else {}),
         "wall_seconds": wall, "tracking_seconds": tracking_seconds,
         "recording_seconds": recording_seconds[0],
         "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,

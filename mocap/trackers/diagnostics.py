@@ -52,12 +52,14 @@ class LocalTrace:
 class Misalignment:
     """The misalignment check after local optimisation: flagged limbs, each limb's error
     (share of its vertices outside the observed silhouettes); for the hybrid tracker,
-    whether the APF ran (None: the tracker has no APF fallback) and over which DOFs."""
+    whether the APF ran (None: the tracker has no APF fallback), over which DOFs, and whether
+    its result was kept (it is only where it lowers the frame's silhouette energy)."""
 
     limbs: tuple[str, ...] = ()
     limb_errors: Mapping[str, float] = field(default_factory=dict)
     apf_called: bool | None = None
     free_dofs: tuple[str, ...] = ()
+    apf_accepted: bool | None = None
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,9 @@
 """The hybrid tracker (``hybrid``), the full system of Zhang et al. 2013: local optimisation
 every frame; when a limb is misaligned afterwards, the prior-constrained annealed particle
 filter searches the degrees of freedom of the misaligned limbs only (the others held at the
-local result), and a short local refinement follows."""
+local result), and a short local refinement follows. The searched pose replaces the local one
+only where it lowers the frame's silhouette energy E_S, so the fallback cannot make a frame
+worse by the measure the tracker is judged on (``Misalignment.apf_accepted``)."""
 
 from __future__ import annotations
 
@@ -56,6 +58,7 @@ class HybridTracker(LocalTracker):
             free = self.detector.free_dofs(check)
             target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
             energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior)
+            chi_local = chi
             chi_apf, apf = run_apf(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
                                    keep_particles=self.keep_particles, free=free,
                                    root_point=self.shaped.rest_joints[0])
@@ -65,13 +68,19 @@ class HybridTracker(LocalTracker):
                 chi, refine = self.local_step(frame, chi_apf)
             finally:
                 self.iterations = refine_iters
+            e_local, e_apf = self.sil(np.stack([chi_local, chi]), target)
+            accepted = bool(e_apf < e_local)
+            if not accepted:
+                chi = chi_local
             terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}
             decision = dataclasses.replace(
-                decision, free_dofs=tuple(self.body.dof_names[d] for d in np.flatnonzero(free)))
+                decision, free_dofs=tuple(self.body.dof_names[d] for d in np.flatnonzero(free)),
+                apf_accepted=accepted)
             report = dataclasses.replace(report, misalignment=decision, energy_terms=terms, anneal=apf,
                                          refine=refine, ignored_views=tuple(target.ignored))
             timings.update({"apf": t3 - t2, "refine": time.perf_counter() - t3})
-            verts = self.shaped.pose(chi).vertices[0]
+            if accepted:
+                verts = self.shaped.pose(chi).vertices[0]
         if self.sift is not None and frame.images is not None:
             self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]

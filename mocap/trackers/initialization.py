@@ -4,9 +4,17 @@ No ground truth is used. Starting from the mean body:
 1. position: the 3D point closest to the rays through the silhouette centroids of all
    views (the body's centre), which places the pelvis above it on the floor;
 2. heading: a coarse search over rotations about the vertical axis, scored by E_S;
-3. then ``rounds`` of alternating refinement: the pose by an annealed particle filter on E_S
-   (all DOFs) followed by local optimisation on the contours, and the shape coefficients
-   (the first ``shape_components``) by an annealed search on E_S with the pose held fixed.
+3. hypotheses: silhouettes hardly tell front from back or the left limbs from the right ones,
+   so the ``hypotheses`` best distinct headings and their opposites are each refined (an
+   annealed search on E_S over all DOFs, then local optimisation on the contours), each
+   result also with its limbs swapped left/right (:func:`mirror_map`); all are scored by E_S
+   at ``select_resolution`` (finer than the search's, where feet, hands and the face decide)
+   and the ``keep`` best go on;
+4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (annealed search,
+   local optimisation) and the shape coefficients (the first ``shape_components``, annealed
+   search on E_S with the pose held fixed); the hypothesis of lowest fine E_S wins.
+The diagnostics list every hypothesis with its energies, so a start that may have picked the
+wrong one is visible (``margin``: the winner's lead over the runner-up, relative).
 """
 
 from __future__ import annotations
@@ -36,6 +44,11 @@ class InitSettings:
     shape_layers: int = 8
     shape_components: int = 8
     local_iterations: int = 10
+    hypotheses: int = 2           # distinct headings refined (each also at +180 deg, and with
+                                  # its limbs swapped); 0: one hypothesis, the best heading only
+    keep: int = 2                 # hypotheses taken through the shape/pose rounds
+    select_resolution: int = 512  # E_S resolution that ranks hypotheses (px, longest side)
+    partitioned: bool = True      # pose search torso first, then limb by limb, then all DOFs
 
 
 def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -51,6 +64,62 @@ def root_twist(yaw: float, x: float, y: float) -> np.ndarray:
     T[:2, :2] = [[c, -s], [s, c]]
     T[:2, 3] = [x, y]
     return se3_log(T)
+
+
+def mirror_map(body: BodyModel) -> tuple[np.ndarray, np.ndarray]:
+    """Left/right swap of the joint angles: chi_swapped[6:] = sign * chi[6:][perm].
+
+    Pairs ``l_*``/``r_*`` DOFs by name; the sign of each is found numerically, as the one for
+    which the swapped pose of a body at the origin is the mirror image (x -> -x) of the pose.
+    DOFs without a partner keep their value (sign +1; a midline twist is mirrored by -1 when
+    that matches better)."""
+    names = list(body.dof_names[6:])
+    perm = np.arange(len(names))
+    for i, n in enumerate(names):
+        for a, b in (("l_", "r_"), ("r_", "l_")):
+            if n.startswith(a) and b + n[2:] in names:
+                perm[i] = names.index(b + n[2:])
+    shaped = body.shaped()
+    mirror = np.array([-1.0, 1.0, 1.0])
+    sign = np.ones(len(names))
+    rng = np.random.default_rng(0)
+    theta = rng.uniform(0.2, 0.4, len(names))
+    for i in range(len(names)):
+        chi = np.zeros(body.num_dofs)
+        chi[6 + i] = theta[i]
+        want = shaped.joints(chi[None])[0] * mirror
+        flip = [body.joint_names.index(("r_" if j.startswith("l_") else "l_") + j[2:])
+                if j[:2] in ("l_", "r_") else k for k, j in enumerate(body.joint_names)]
+        errs = []
+        for s in (1.0, -1.0):
+            c = np.zeros(body.num_dofs)
+            c[6 + perm[i]] = s * theta[i]
+            errs.append(np.abs(shaped.joints(c[None])[0][flip] - want).max())
+        sign[perm[i]] = 1.0 if errs[0] <= errs[1] else -1.0
+    return perm, sign
+
+
+def dof_partitions(body: BodyModel) -> list[np.ndarray]:
+    """Free-DOF masks (D,) for a partitioned search: the root with the midline DOFs (spine,
+    neck), then each limb (DOFs of joints named l_/r_ with arm or leg words)."""
+    D = body.num_dofs
+    arm = ("clavicle", "shoulder", "elbow", "wrist")
+    leg = ("hip", "knee", "ankle")
+    masks = {"torso": np.zeros(D, bool)}
+    masks["torso"][:6] = True
+    for k, n in enumerate(body.dof_names[6:], start=6):
+        side = n[:2] if n[:2] in ("l_", "r_") else ""
+        part = ("arm" if any(w in n for w in arm) else "leg" if any(w in n for w in leg) else "")
+        key = f"{side}{part}" if side and part else "torso"
+        masks.setdefault(key, np.zeros(D, bool))[k] = True
+    return [m for m in masks.values() if m.any()]
+
+
+def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.ndarray) -> np.ndarray:
+    """The pose with its left and right joint angles exchanged (root unchanged), in the limits."""
+    out = np.asarray(chi, np.float64).copy()
+    out[6:] = sign * chi[6:][perm]
+    return np.clip(out, limits[:, 0], limits[:, 1])
 
 
 def shape_energy(body: BodyModel, rig: Rig, chi: np.ndarray, target, components: int):
@@ -99,46 +168,84 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     for i, yaw in enumerate(yaws):
         cands[i, :6] = root_twist(yaw, center[0], center[1])
     e_head = sil(cands, target)
-    best = int(np.argmin(e_head))
     diag = {"center": center.tolist(), "heading_energy": e_head.tolist()}
     std = np.r_[np.full(3, 0.05), np.full(3, 0.15), np.full(body.num_dofs - 6, 0.3)]
     obs = observed_contours(masks)
-    # silhouettes hardly tell front from back: refine the best heading and its opposite
-    # (one pose round each) and keep the better one
+    apf = APFSettings(particles=settings.pose_particles, layers=settings.pose_layers, diffusion=0.7,
+                      shrink=0.9)
+    fine_scale = min(1.0, settings.select_resolution / float(np.max(rig.sizes)))
+    fine_target = silhouette_target(masks, fine_scale, view_names=tuple(rig.names))
+
+    def fine_energy(a: np.ndarray, chi: np.ndarray) -> float:
+        return float(SilhouetteEnergy(body.shaped(a), rig, fine_scale)(chi[None], fine_target)[0])
+
+    groups = dof_partitions(body) if settings.partitioned else []
+
+    def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
+        shaped = body.shaped(a)
+        sil = SilhouetteEnergy(shaped, rig, scale)
+
+        def search(x0, free=None):
+            return run_apf(lambda x: sil(x, target), x0, spread, body.limits, apf, rng, free=free,
+                           root_point=shaped.rest_joints[0])[0]
+
+        for free in groups:                       # partitioned: torso first, then each limb
+            chi = search(chi, free)
+        return local(a, search(chi))
+
+    def local(a: np.ndarray, chi: np.ndarray) -> np.ndarray:
+        matcher = ContourMatcher(body, rig)
+        chi, _ = optimize_pose(body.shaped(a), chi, lambda v, m=matcher: m(v, obs), settings.local_iterations)
+        return chi
+
+    # 3. hypotheses: distinct headings, their opposites, each with its limbs swapped
+    order = np.argsort(e_head)
+    picked: list[float] = []
+    for i in order:        # distinct up to +180 deg (the opposite is a hypothesis of its own)
+        gap = [abs((yaws[i] - y + np.pi / 2) % np.pi - np.pi / 2) for y in picked]
+        if all(g > np.pi / 3 + 1e-9 for g in gap):
+            picked.append(float(yaws[i]))
+        if len(picked) == max(1, settings.hypotheses):
+            break
+    # hypotheses=0: a single hypothesis (the best heading as found), for comparison
+    headings = picked if settings.hypotheses == 0 else [y + d for y in picked for d in (0.0, np.pi)]
+    perm, sign = mirror_map(body)
     hypotheses = []
-    for yaw in (yaws[best], yaws[best] + np.pi):
+    for yaw in headings:
         h = np.zeros(body.num_dofs)
         h[:6] = root_twist(yaw, center[0], center[1])
-        h, _ = run_apf(lambda x, sil=sil: sil(x, target), h, std, body.limits,
-                       APFSettings(particles=settings.pose_particles, layers=settings.pose_layers,
-                                   diffusion=0.7, shrink=0.9), rng, root_point=shaped.rest_joints[0])
-        matcher = ContourMatcher(body, rig)
-        h, _ = optimize_pose(shaped, h, lambda v, m=matcher: m(v, obs), settings.local_iterations)
-        hypotheses.append((float(sil(h[None], target)[0]), h))
-    diag["heading_hypotheses_energy"] = [e for e, _ in hypotheses]
-    chi = min(hypotheses, key=lambda t: t[0])[1]
+        h = refine_pose(alpha, h, std)
+        variants = [("refined", h)]
+        if settings.hypotheses > 0:
+            variants.append(("limbs swapped", local(alpha, swap_limbs(h, perm, sign, body.limits))))
+        for kind, v in variants:
+            hypotheses.append({"heading_deg": float(np.degrees(yaw) % 360), "kind": kind,
+                               "energy": fine_energy(alpha, v), "chi": v})
+    hypotheses.sort(key=lambda d: d["energy"])
+    kept = hypotheses[:max(1, settings.keep)]
     shape_std = np.full(settings.shape_components, 0.8)
     shape_limits = np.tile([-3.0, 3.0], (settings.shape_components, 1))
-    for r in range(settings.rounds):
-        # 3a. pose: annealed search on E_S, then local optimisation on the contours
-        shaped = body.shaped(alpha)
-        sil = SilhouetteEnergy(shaped, rig, scale)
-        chi, _ = run_apf(lambda x, sil=sil: sil(x, target), chi, std * (0.5 ** (r + 1)), body.limits,
-                         APFSettings(particles=settings.pose_particles, layers=settings.pose_layers,
-                                     diffusion=0.7, shrink=0.9), rng, root_point=shaped.rest_joints[0])
-        matcher = ContourMatcher(body, rig)
-        chi, _ = optimize_pose(shaped, chi, lambda v, m=matcher: m(v, obs), settings.local_iterations)
-        # 3b. shape: annealed search over the first components, pose fixed
-        energy = shape_energy(body, small, chi, target, settings.shape_components)
-        a, _ = run_apf(energy, alpha[:settings.shape_components], shape_std * (0.6**r), shape_limits,
-                       APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
-                                   diffusion=0.7, shrink=0.9), rng)
-        alpha = alpha.copy()
-        alpha[:settings.shape_components] = a
-        diag[f"round_{r}_energy"] = float(energy(a[None])[0])
-    shaped = body.shaped(alpha)
-    matcher = ContourMatcher(body, rig)
-    chi, _ = optimize_pose(shaped, chi, lambda v: matcher(v, obs), settings.local_iterations)
+    finals = []
+    for hyp in kept:
+        chi, a = hyp["chi"], alpha.copy()
+        for r in range(settings.rounds):
+            # 4a. pose: annealed search on E_S, then local optimisation on the contours
+            chi = refine_pose(a, chi, std * (0.5 ** (r + 1)))
+            # 4b. shape: annealed search over the first components, pose fixed
+            energy = shape_energy(body, small, chi, target, settings.shape_components)
+            c, _ = run_apf(energy, a[:settings.shape_components], shape_std * (0.6**r), shape_limits,
+                           APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
+                                       diffusion=0.7, shrink=0.9), rng)
+            a = a.copy()
+            a[:settings.shape_components] = c
+        chi = local(a, chi)
+        hyp["final_energy"] = fine_energy(a, chi)
+        finals.append((hyp["final_energy"], chi, a))
+    finals.sort(key=lambda t: t[0])
+    _, chi, alpha = finals[0]
+    diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
+    diag["margin"] = (float((finals[1][0] - finals[0][0]) / max(finals[0][0], 1e-12))
+                      if len(finals) > 1 else None)
     return chi, alpha, diag
 
 
@@ -148,8 +255,9 @@ class SilhouetteInitialisation:
 
     def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
         """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
-        chi, alpha, _ = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.init_rng,
-                                                    self.init_settings)
+        chi, alpha, diag = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.init_rng,
+                                                       self.init_settings)
+        self.init_diagnostics = diag
         return chi, alpha
 
     def checked_pose(self, chi: np.ndarray) -> np.ndarray:

@@ -1,0 +1,67 @@
+"""Self-initialisation of a tracker, timed, with an optional on-disk cache.
+
+Initialising from silhouettes (:mod:`mocap.trackers.initialization`) costs tens of seconds and
+is the same computation for every silhouette tracker of a comparison: the same body, frame,
+rig, settings and random state give the same result. ``initial_estimate(..., cache=DIR)``
+keys a result by exactly those (a SHA-1 of the body's name and DOFs, the frame's masks, the
+calibration, the tracker's ``init_settings`` and the state of its ``init_rng``), stores it in
+``DIR/<key>.npz`` (written atomically) and reuses it; on a hit the random state is advanced to
+where the computation would have left it, so tracking continues identically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mocap.cameras.calibration_io import rig_to_dict
+from mocap.trackers.base import Frame
+
+
+def _key(tracker, frame: Frame) -> str:
+    h = hashlib.sha1()
+    body = tracker.body
+    h.update(json.dumps([body.name, list(body.dof_names), body.num_shape]).encode())
+    h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
+    h.update(json.dumps(rig_to_dict(tracker.rig), sort_keys=True, default=str).encode())
+    h.update(repr(getattr(tracker, "init_settings", None)).encode())
+    rng = getattr(tracker, "init_rng", None)
+    h.update(json.dumps(rng.bit_generator.state if rng is not None else None, sort_keys=True,
+                        default=str).encode())
+    return h.hexdigest()[:20]
+
+
+def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
+    the computation, also on a cache hit), cached (bool), and the initialiser's hypotheses and
+    margin where it reports them."""
+    path = None
+    if cache is not None and frame.masks is not None:
+        path = Path(cache) / f"{_key(tracker, frame)}.npz"
+        if path.is_file():
+            with np.load(path, allow_pickle=False) as z:
+                info = json.loads(str(z["info"]))
+                if "rng_state" in info and getattr(tracker, "init_rng", None) is not None:
+                    tracker.init_rng.bit_generator.state = info.pop("rng_state")
+                return z["chi"].copy(), z["alpha"].copy(), {**info, "cached": True}
+    t = time.perf_counter()
+    chi, alpha = tracker.initial_estimate(frame)
+    diag = getattr(tracker, "init_diagnostics", None) or {}
+    info = {"seconds": time.perf_counter() - t,
+            **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")}}
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        stored = dict(info)
+        rng = getattr(tracker, "init_rng", None)
+        if rng is not None:
+            stored["rng_state"] = rng.bit_generator.state
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
+        np.savez(tmp, chi=chi, alpha=alpha, info=json.dumps(stored, default=float))
+        os.replace(tmp, path)
+    return chi, alpha, {**info, "cached": False}

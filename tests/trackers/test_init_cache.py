@@ -1,0 +1,60 @@
+"""The self-initialisation cache returns the computed result and leaves the random state as the
+computation would have."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mocap.body import load_body
+from mocap.cameras import rig_from_config
+from mocap.trackers.base import Frame
+from mocap.trackers.init_cache import initial_estimate
+
+
+class Counting:
+    """A stand-in tracker whose initialisation draws from its init_rng."""
+
+    def __init__(self, body, rig, seed=0):
+        self.body, self.rig, self.init_settings = body, rig, ("settings", 1)
+        self.init_rng = np.random.default_rng(seed)
+        self.calls = 0
+
+    def initial_estimate(self, frame):
+        self.calls += 1
+        chi = self.init_rng.normal(size=self.body.num_dofs)
+        self.init_diagnostics = {"margin": 0.5, "hypotheses": [{"energy": 1.0}], "other": 3}
+        return chi, np.zeros(self.body.num_shape)
+
+
+def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path):
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    masks = np.zeros((len(rig.names), 8, 8), bool)
+    masks[:, 2:5, 3:6] = True
+    frame = Frame(index=0, masks=masks, images=None, detections=None)
+    a, b = Counting(body, rig), Counting(body, rig)
+    chi_a, alpha_a, info_a = initial_estimate(a, frame, tmp_path)
+    chi_b, alpha_b, info_b = initial_estimate(b, frame, tmp_path)
+    assert (a.calls, b.calls) == (1, 0) and not info_a["cached"] and info_b["cached"]
+    np.testing.assert_array_equal(chi_a, chi_b)
+    assert info_b["margin"] == 0.5 and "other" not in info_b
+    assert a.init_rng.random() == b.init_rng.random()          # same state after the hit
+    # another seed, other masks or other settings: computed anew
+    c = Counting(body, rig, seed=1)
+    initial_estimate(c, frame, tmp_path)
+    d = Counting(body, rig)
+    initial_estimate(d, Frame(index=0, masks=~masks, images=None, detections=None), tmp_path)
+    e = Counting(body, rig)
+    e.init_settings = ("settings", 2)
+    initial_estimate(e, frame, tmp_path)
+    assert (c.calls, d.calls, e.calls) == (1, 1, 1)
+    assert len(list(tmp_path.glob("*.npz"))) == 4 and not list(tmp_path.glob(".*tmp*"))
+
+
+def test_without_a_cache_nothing_is_written(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    t = Counting(body, rig)
+    masks = np.ones((len(rig.names), 4, 4), bool)
+    _, _, info = initial_estimate(t, Frame(index=0, masks=masks, images=None, detections=None))
+    assert t.calls == 1 and not info["cached"] and info["seconds"] >= 0
+    assert not list(tmp_path.iterdir())
