@@ -6,16 +6,23 @@ rig, settings and random state give the same result. ``initial_estimate(..., cac
 keys a result by exactly those (a SHA-1 of the body's name and DOFs, the frame's masks, the
 calibration, the tracker's ``init_settings`` and the state of its ``init_rng``), stores it in
 ``DIR/<key>.npz`` (written atomically) and reuses it; on a hit the random state is advanced to
-where the computation would have left it, so tracking continues identically.
+where the computation would have left it, so tracking continues identically. Parallel runs
+of one sweep wanting the same key wait for the first (an advisory file lock, POSIX only).
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import time
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:             # not POSIX: no waiting, at worst the work is done twice
+    fcntl = None
 
 import numpy as np
 
@@ -41,22 +48,40 @@ def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = No
     """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
     the computation, also on a cache hit), cached (bool), and the initialiser's hypotheses and
     margin where it reports them."""
-    path = None
-    if cache is not None and frame.masks is not None:
-        path = Path(cache) / f"{_key(tracker, frame)}.npz"
+    if cache is None or frame.masks is None:
+        return _compute(tracker, frame, None)
+    path = Path(cache) / f"{_key(tracker, frame)}.npz"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with _locked(path.with_suffix(".lock")):
         if path.is_file():
             with np.load(path, allow_pickle=False) as z:
                 info = json.loads(str(z["info"]))
                 if "rng_state" in info and getattr(tracker, "init_rng", None) is not None:
                     tracker.init_rng.bit_generator.state = info.pop("rng_state")
                 return z["chi"].copy(), z["alpha"].copy(), {**info, "cached": True}
+        return _compute(tracker, frame, path)
+
+
+@contextlib.contextmanager
+def _locked(path: Path):
+    if fcntl is None:
+        yield
+        return
+    with open(path, "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def _compute(tracker, frame: Frame, path: Path | None) -> tuple[np.ndarray, np.ndarray, dict]:
     t = time.perf_counter()
     chi, alpha = tracker.initial_estimate(frame)
     diag = getattr(tracker, "init_diagnostics", None) or {}
     info = {"seconds": time.perf_counter() - t,
             **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")}}
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
         stored = dict(info)
         rng = getattr(tracker, "init_rng", None)
         if rng is not None:
