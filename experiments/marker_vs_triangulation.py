@@ -52,6 +52,9 @@ from mocap.trackers.run import frame_of, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
 LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
+#: what the HumanEva-style ground truth's joints are in our landmark catalogue: its thorax is
+#: the base of the neck (between the clavicles), its pelvis the midpoint of the hips
+HUMANEVA_LANDMARKS = {"thorax": "neck_base", "pelvis": "mid_hip"}
 HUMANEVA = ("pelvis", "thorax", "head", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow",
             "r_wrist", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle")
 VARIANTS = {
@@ -126,6 +129,9 @@ def main() -> None:
     p.add_argument("--mismatch", default=None, help="folder of model-mismatch sequences (<motion>/ sequence "
                    "folders with ground-truth joints): detect their 15 HumanEva joints instead")
     p.add_argument("--views", type=int, default=4, help="with --mismatch: the first N views")
+    p.add_argument("--same-names", action="store_true", help="with --mismatch: label the truth's "
+                   "thorax/pelvis as our thorax/pelvis joints (before: spine level, above the hips) "
+                   "instead of the neck base / mid-hip landmarks they are")
     args = p.parse_args()
     body = load_body("paper22")
     rig = rig_from_config("humaneva")
@@ -144,6 +150,8 @@ def main() -> None:
                 if len(names) < len(HUMANEVA):
                     raise SystemExit(f"{motion}: ground truth lacks {sorted(set(HUMANEVA) - set(names))}")
                 truth = seq.gt.joints[:args.frames, [gt_names.index(n) for n in names]]
+                if not args.same_names:
+                    names = [HUMANEVA_LANDMARKS.get(n, n) for n in names]
                 det = detect_points(rig, truth, names, args, np.random.default_rng([seed, 7]))
                 seq = Sequence(name=motion, rig=rig, fps=seq.fps, detections=det)
             else:

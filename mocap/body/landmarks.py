@@ -3,8 +3,9 @@ forward kinematics. They are the markers of Canton-Ferrer et al. 2010 and the ke
 2D detectors.
 
 A landmark is attached to one joint's rigid transform G_j (not skinned) at a rest-pose point
-given either as that joint's (or another joint's) rest position, or as a mesh vertex
-(the vertex nearest a direction from the joint, chosen once on the mean body).
+given either as that joint's (or another joint's) rest position, as the midpoint of several
+joints' rest positions (``between``: e.g. the base of the neck between the clavicles), or as
+a mesh vertex (the vertex nearest a direction from the joint, chosen once on the mean body).
 """
 
 from __future__ import annotations
@@ -19,12 +20,22 @@ from mocap.body.model import BodyModel, ShapedBody
 
 @dataclass(frozen=True)
 class Landmark:
-    """name; joint whose transform carries it; rest point: ``at`` joint or ``vertex`` index."""
+    """name; joint whose transform carries it; rest point: ``at`` joint, the mean of the
+    ``between`` joints, or ``vertex`` index."""
 
     name: str
     joint: str
     at: str | None = None
     vertex: int | None = None
+    between: tuple[str, ...] = ()
+
+    def rest_point(self, model: BodyModel, joints: np.ndarray, verts: np.ndarray) -> np.ndarray:
+        """The rest point from rest joints (..., J, 3) and vertices (..., V, 3) -> (..., 3)."""
+        if self.at is not None:
+            return joints[..., model.joint_index(self.at), :]
+        if self.between:
+            return joints[..., [model.joint_index(n) for n in self.between], :].mean(axis=-2)
+        return verts[..., self.vertex, :]
 
 
 # The default set: the 15 HumanEva evaluation joints plus head top, chest, hands and toes.
@@ -66,6 +77,11 @@ class LandmarkSet:
             if "at" in e:
                 model.joint_index(str(e["at"]))
                 items.append(Landmark(name, joint, at=str(e["at"])))
+            elif "between" in e:
+                names = tuple(str(n) for n in e["between"])
+                for n in names:
+                    model.joint_index(n)
+                items.append(Landmark(name, joint, between=names))
             elif "vertex" in e:
                 v = int(e["vertex"])
                 if not 0 <= v < model.num_vertices:
@@ -79,7 +95,7 @@ class LandmarkSet:
                 v = int(cand[np.argmax((mean_verts[cand] - mean_joints[j]) @ d)])
                 items.append(Landmark(name, joint, vertex=v))
             else:
-                raise ValueError(f"landmark '{name}' needs 'at', 'vertex' or 'extreme'")
+                raise ValueError(f"landmark '{name}' needs 'at', 'between', 'vertex' or 'extreme'")
         self.landmarks = tuple(items)
         self.names = tuple(lm.name for lm in items)
         if len(set(self.names)) != len(self.names):
@@ -93,8 +109,7 @@ class LandmarkSet:
         """Rest positions (L, 3) for a shaped body."""
         pts = np.empty((len(self), 3), dtype=shaped.rest_vertices.dtype)
         for i, lm in enumerate(self.landmarks):
-            pts[i] = (shaped.rest_joints[self.model.joint_index(lm.at)] if lm.at is not None
-                      else shaped.rest_vertices[lm.vertex])
+            pts[i] = lm.rest_point(self.model, shaped.rest_joints, shaped.rest_vertices)
         return pts
 
     def from_transforms(self, transforms: np.ndarray, rest_points: np.ndarray) -> np.ndarray:

@@ -51,7 +51,8 @@ def landmark_parts(body: BodyModel, landmarks: LandmarkSet) -> list[set[int]]:
     its carrier joint, the joint it sits at, and their parents and children."""
     out = []
     for lm, j in zip(landmarks.landmarks, landmarks.joint, strict=True):
-        joints = {int(j)} | ({body.joint_index(lm.at)} if lm.at is not None else set())
+        joints = {int(j)} | ({body.joint_index(lm.at)} if lm.at is not None else set()) \
+            | {body.joint_index(n) for n in lm.between}
         near = set(joints)
         for k in joints:
             if body.parents[k] >= 0:

@@ -48,7 +48,7 @@ from mocap.trackers.marker_init import (
 from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
 from mocap.trackers.marker_offsets import OffsetLearning, local_residuals, robust_offsets
 from mocap.trackers.marker_refine import Refinement, refine_pose
-from mocap.trackers.marker_shape import length_model, skeleton_length_model
+from mocap.trackers.marker_shape import length_model, shrink_to_bounds, skeleton_length_model
 from mocap.trackers.step import AnnealedStep
 
 
@@ -60,7 +60,8 @@ class MarkerInit:
     bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape;
     ``outlier_sigma``: measured distances this many shape-model sigmas from their mean are
     ignored by the fit; ``bound_sigma``: a fitted bone outside the model's mean +- this many
-    sigmas makes the start-up fall back to the mean shape (flagged); ``association_px``: the
+    sigmas makes the start-up shrink the fitted coefficients towards the mean until every bone
+    is inside (flagged); ``association_px``: the
     skeleton epipolar threshold of the cross-view association (None: the gate)."""
 
     passes: int = 3
@@ -155,8 +156,9 @@ class MarkerAPFTracker(AnnealedStep):
         2. Per source, the shape fitted to the rigid landmark distances, pairs more than
            ``init.outlier_sigma`` standard deviations of the shape model from their mean
            ignored (:mod:`mocap.trackers.marker_shape`); a fitted body with a bone outside
-           the model's +-``init.bound_sigma`` sigma falls back to the mean shape (flagged in
-           ``start_up_flags``). The mean shape is a hypothesis too.
+           the model's +-``init.bound_sigma`` sigma is shrunk towards the mean shape until
+           every bone is inside (flagged in ``start_up_flags``). The mean shape is a
+           hypothesis too.
         3. Each hypothesis (source x shape) is posed by annealed IK and scored by the marker
            likelihood of the frame (all candidates); the lowest energy wins.
         """
@@ -182,11 +184,12 @@ class MarkerAPFTracker(AnnealedStep):
                 z = bones.z_scores(bones.lengths(np.asarray(joints[0], np.float64)))
                 if np.abs(z).max() > self.init.bound_sigma:
                     worst = int(np.argmax(np.abs(z)))
+                    alpha, scale = shrink_to_bounds(self.body, alpha, bones, self.init.bound_sigma)
                     self.start_up_flags.append(
-                        f"start-up ({source}): fitted shape implausible ({bone_names[worst]} at "
-                        f"{z[worst]:+.1f} sigma), mean shape used instead")
-                else:
-                    shapes.insert(0, ("fitted shape", alpha))
+                        f"start-up ({source}): fitted shape beyond the model's bounds ({bone_names[worst]} "
+                        f"at {z[worst]:+.1f} sigma), shrunk towards the mean by {scale:.2f} to "
+                        f"+-{self.init.bound_sigma:g} sigma")
+                shapes.insert(0, ("fitted shape", alpha))
             for shape_name, alpha in shapes:
                 shaped = self.body.shaped(alpha)
                 rest = lms.rest_points(shaped).astype(np.float64)

@@ -5,8 +5,9 @@ whose distance no pose can change (the "bones" used to fit the subject's size).
 The catalogue holds the project's default marker set (the 15 HumanEva joints plus head
 top, chest, hands and toes, :data:`mocap.body.landmarks.DEFAULT_LANDMARKS`) and the extra
 points of 2D keypoint detectors (OpenPose BODY_25 / BODY_25B: nose, eyes, ears, neck,
-heels, small toes). Face and foot points are approximate: the vertex of the head or foot
-part furthest along a direction on the mean body.
+neck base (between the clavicles: HumanEva's ``thorax``), mid-hip, heels, small toes).
+Face and foot points are approximate: the vertex of the head or foot part furthest along a
+direction on the mean body.
 """
 
 from __future__ import annotations
@@ -25,7 +26,10 @@ KEYPOINT_LANDMARKS: tuple[Mapping, ...] = (
     {"name": "l_ear", "joint": "head", "extreme": [1, 0, 0]},
     {"name": "r_ear", "joint": "head", "extreme": [-1, 0, 0]},
     {"name": "neck", "joint": "neck", "at": "neck"},
-    {"name": "neck_base", "joint": "thorax", "at": "l_clavicle"},
+    {"name": "neck_base", "joint": "thorax", "between": ["l_clavicle", "r_clavicle"]},
+    # the midpoint of the hip joints (OpenPose's MidHip, the pelvis of HumanEva-style
+    # skeletons); our ``pelvis`` joint sits ~16 mm above it
+    {"name": "mid_hip", "joint": "pelvis", "between": ["l_hip", "r_hip"]},
     {"name": "l_heel", "joint": "l_ankle", "extreme": [0, 1, -1]},
     {"name": "r_heel", "joint": "r_ankle", "extreme": [0, 1, -1]},
     {"name": "l_small_toe", "joint": "l_ankle", "extreme": [1, -1, -0.3]},
@@ -81,7 +85,7 @@ def rest_point_basis(body: BodyModel, landmarks: LandmarkSet) -> tuple[np.ndarra
     verts, joints = body.rest(np.vstack([np.zeros(K), np.eye(K)]))     # (K+1, V, 3), (K+1, J, 3)
     pts = np.empty((K + 1, len(landmarks), 3))
     for i, lm in enumerate(landmarks.landmarks):
-        pts[:, i] = (joints[:, body.joint_index(lm.at)] if lm.at is not None else verts[:, lm.vertex])
+        pts[:, i] = lm.rest_point(body, joints, verts)
     return pts[0], pts[1:] - pts[0]
 
 

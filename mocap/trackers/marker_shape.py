@@ -62,3 +62,16 @@ def skeleton_length_model(body) -> tuple[LengthModel, list[str]]:
     model = length_model(joints[0], joints[1:] - joints[0], pairs)
     names = [f"{body.joint_names[a]}-{body.joint_names[b]}" for a, b in pairs]
     return model, names
+
+
+def shrink_to_bounds(body, alpha: np.ndarray, model: LengthModel, n_sigma: float,
+                     steps: int = 200) -> tuple[np.ndarray, float]:
+    """The largest scaling s alpha (s in [0, 1], on a grid of ``steps``) whose bones (``model``:
+    :func:`skeleton_length_model`) all lie within mean +- ``n_sigma`` sigma; returns
+    (s alpha, s). A fit that the measurements push past the model's bounds keeps its direction
+    (a tall subject stays tall) instead of falling back to the mean shape."""
+    s = np.linspace(1.0, 0.0, steps + 1)
+    _, joints = body.rest(s[:, None] * np.asarray(alpha, np.float64)[None])
+    ok = ~model.implausible(model.lengths(np.asarray(joints, np.float64)), n_sigma).any(axis=1)
+    k = int(np.argmax(ok))                                   # the first (largest) s inside the bounds
+    return s[k] * np.asarray(alpha, np.float64), float(s[k])

@@ -16,7 +16,8 @@ from mocap.data.sequence import Sequence
 from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.marker_associate import associate_people, skeletons_of
 from mocap.trackers.marker_init import pinhole_rig
-from mocap.trackers.marker_shape import skeleton_length_model
+from mocap.trackers.marker_landmarks import make_landmark_set, probe_poses
+from mocap.trackers.marker_shape import shrink_to_bounds, skeleton_length_model
 from mocap.trackers.run import frame_of
 
 REPO = Path(__file__).resolve().parents[2]
@@ -78,3 +79,30 @@ def test_a_second_person_in_every_view_does_not_corrupt_the_shape(body, rig, see
     legs = [names.index(n) for n in ("l_hip-l_knee", "l_knee-l_ankle", "r_hip-r_knee", "r_knee-r_ankle")]
     np.testing.assert_allclose(fitted[legs], true[legs], atol=0.03)     # the subject's legs, not a mix
     assert "associated person (2 in view)" in trk.start_up["chosen"]
+
+
+def test_a_fit_beyond_the_bounds_is_shrunk_not_replaced_by_the_mean(body):
+    model, _ = skeleton_length_model(body)
+    alpha = np.zeros(body.num_shape)
+    alpha[:3] = [4.0, 3.0, -2.0]                                       # far outside the model
+    _, joints = body.rest(alpha[None])
+    assert model.implausible(model.lengths(np.asarray(joints[0], np.float64)), 3.0).any()
+    shrunk, scale = shrink_to_bounds(body, alpha, model, 3.0)
+    _, joints = body.rest(shrunk[None])
+    z = model.z_scores(model.lengths(np.asarray(joints[0], np.float64)))
+    assert np.abs(z).max() <= 3.0 and np.abs(z).max() > 2.9            # at the bound, not the mean
+    np.testing.assert_allclose(shrunk, scale * alpha)
+    inside = 0.3 * alpha
+    np.testing.assert_allclose(shrink_to_bounds(body, inside, model, 3.0)[0], inside)
+
+
+def test_neck_base_and_mid_hip_are_midpoints_of_their_joints_in_any_pose(body):
+    lms = make_landmark_set(body, ["neck_base", "mid_hip"])
+    shaped = body.shaped(np.linspace(-1, 1, body.num_shape))
+    chi = probe_poses(body, 4)
+    chi[:, :6] = 0.3
+    X = lms.positions(shaped, chi).astype(np.float64)
+    J = shaped.pose(chi).joints.astype(np.float64)
+    idx = body.joint_index
+    np.testing.assert_allclose(X[:, 0], J[:, [idx("l_clavicle"), idx("r_clavicle")]].mean(1), atol=1e-5)
+    np.testing.assert_allclose(X[:, 1], J[:, [idx("l_hip"), idx("r_hip")]].mean(1), atol=1e-5)
