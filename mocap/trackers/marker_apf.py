@@ -15,7 +15,7 @@ markers and on OpenPose keypoints.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -62,7 +62,9 @@ class MarkerInit:
     ignored by the fit; ``bound_sigma``: a fitted bone outside the model's mean +- this many
     sigmas makes the start-up shrink the fitted coefficients towards the mean until every bone
     is inside (flagged); ``association_px``: the
-    skeleton epipolar threshold of the cross-view association (None: the gate)."""
+    skeleton epipolar threshold of the cross-view association (None: the gate);
+    ``refine_iterations``: Gauss-Newton steps on the reprojection error that pose each shape
+    hypothesis before it is scored (0: scored at the annealed IK's pose)."""
 
     passes: int = 3
     particles: int = 300
@@ -74,6 +76,7 @@ class MarkerInit:
     outlier_sigma: float = 4.0
     bound_sigma: float = 3.0
     association_px: float | None = None
+    refine_iterations: int = 10
 
 
 class MarkerAPFTracker(AnnealedStep):
@@ -196,6 +199,10 @@ class MarkerAPFTracker(AnnealedStep):
                 chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
                 chi = self._fit_to_points(shaped, chi, measured)
                 energy = MarkerEnergy(lms, shaped, self.pinhole, obs, self.likelihood, F=self.F)
+                if self.init.refine_iterations:     # score each shape at its best pose, not the IK's
+                    chi, _ = refine_pose(energy.points, chi, obs, self.pinhole, self.body.limits,
+                                         replace(self.refinement, iterations=self.init.refine_iterations,
+                                                 prior_std=1.0), self.likelihood.gate_px)
                 tried.append((float(energy(chi[None])[0]), chi, alpha, f"{source}, {shape_name}"))
         e, chi, alpha, label = min(tried, key=lambda t: t[0])
         self.start_up = {"chosen": label, "energies": {t[3]: t[0] for t in tried},
