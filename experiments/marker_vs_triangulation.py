@@ -19,12 +19,13 @@ without offsets, in mm, mean over keypoints and frames 1..F-1:
 * ``marker_apf`` variants: the tracker (conf/tracker/marker_apf.yaml) started by its own
   start-up on frame 0; ``refine``: with 3 Gauss-Newton steps (mocap/trackers/marker_refine.py);
   ``refine_noconf``: the same without confidence weights; ``refine_offsets``: plus keypoint
-  offsets learned over 10 frames. The tracker's error is that of its landmarks without the
-  learned offsets (the offsets model where the detector marks a landmark; the truth is the
-  landmark itself), so triangulation, which sees only the detector's points, keeps the
-  offsets in its error. With ``--mismatch`` the detector marks the true joints themselves,
-  so the error of the tracker's keypoints (landmarks + learned offsets) is reported too
-  (``error_keypoints_mm``, column ``...+kp``).
+  offsets learned over 10 frames; ``conf`` / ``refine_conf`` / ``refine_conf_offsets``: the
+  same with the confidence-weighted likelihood (``use_confidence``). The tracker's error is
+  that of its landmarks without the learned offsets (the offsets model where the detector
+  marks a landmark; the truth is the landmark itself), so triangulation, which sees only the
+  detector's points, keeps the offsets in its error. With ``--mismatch`` the detector marks
+  the true joints themselves, so the error of the tracker's keypoints (landmarks + learned
+  offsets) is reported too (``error_keypoints_mm``, column ``...+kp``).
 Writes one JSON row per (motion, seed, method) and prints the table.
 """
 
@@ -64,6 +65,9 @@ VARIANTS = {
     "refine": {"refine": {"iterations": 3}},
     "refine_noconf": {"refine": {"iterations": 3, "use_confidence": False}},
     "refine_offsets": {"refine": {"iterations": 3}, "offsets": {"frames": 10}},
+    "conf": {"use_confidence": True},
+    "refine_conf": {"refine": {"iterations": 3}, "use_confidence": True},
+    "refine_conf_offsets": {"refine": {"iterations": 3}, "offsets": {"frames": 10}, "use_confidence": True},
 }
 
 

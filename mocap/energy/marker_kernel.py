@@ -131,11 +131,12 @@ def landmark_points(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest_p
 
 
 @njit(cache=True)
-def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near):
+def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, weight):
     """Per-view costs (P, L, C) and kept (P, L, C) of :func:`mocap.energy.markers.view_costs`
     from landmarks X: (P, L, 3) world; R: (C, 3, 3), t: (C, 3), Kc: (C, 3, 3) the pinhole
     cameras; obs_xy: (L, C, K, 2), valid: (L, C, K); lines: (L, C, K, C, 3) unit-normal
-    epipolar lines; epipoles: (C, C, 3); tau2: gate^2; near: minimum depth."""
+    epipolar lines; epipoles: (C, C, 3); tau2: gate^2; near: minimum depth; weight:
+    (L, C, K) the kept candidate's weight w in w min(c, tau2) + (1 - w) tau2."""
     P, L = X.shape[0], X.shape[1]
     C = R.shape[0]
     K = obs_xy.shape[2]
@@ -187,5 +188,7 @@ def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near):
                 if n < 1:
                     n = 1
                 cval = 0.5 * best + 0.25 * epi / n
-                cost[p, lm, a] = cval if (np.isfinite(cval) and cval < tau2) else tau2
+                cval = cval if (np.isfinite(cval) and cval < tau2) else tau2
+                w = weight[lm, a, kb]
+                cost[p, lm, a] = w * cval + (1.0 - w) * tau2
     return cost, kept

@@ -20,7 +20,10 @@ For a batch of particles with landmarks X: (P, L, 3):
    It is zero only if the landmark lies on the ray of z_a; with measurements in several views
    only at their common point. The cost of a view is min(c_a, tau^2); a view without a kept
    measurement (missed, occluded, or gated out) costs tau^2, so outliers cost no more than a
-   miss (a truncated quadratic).
+   miss (a truncated quadratic). With ``use_confidence`` the kept measurement's detector
+   confidence w in [0, 1] makes it a mixture of a good detection and an uninformative one:
+   w min(c_a, tau^2) + (1 - w) tau^2 (a confidence-1 detection as before, a confidence-0
+   one as a miss).
 4. Occlusion management (Sec. 3.4): landmarks with candidates in fewer than ``min_views``
    views around their predicted position are "weak". Their neighbours constrain them
    through the kinematic chain; temporal coherence adds one virtual view per weak landmark,
@@ -152,7 +155,8 @@ class MarkerLikelihood:
     """gate_px: tau, the outlier threshold (pixels); min_views: landmarks with candidates in
     fewer views get temporal coherence; coherence_radius: r (metres); coherence_weight:
     multiplies the coherence term (0 disables it); near: minimum depth (m) of a usable view;
-    compiled: evaluate with the compiled kernels (:mod:`mocap.energy.marker_kernel`), else
+    use_confidence: weigh each kept detection by its confidence (module docstring); compiled:
+    evaluate with the compiled kernels (:mod:`mocap.energy.marker_kernel`), else
     with the numpy reference."""
 
     gate_px: float = 30.0
@@ -161,6 +165,7 @@ class MarkerLikelihood:
     coherence_weight: float = 1.0
     near: float = 0.05
     compiled: bool = True
+    use_confidence: bool = False
 
     def __post_init__(self) -> None:
         if not self.gate_px > 0 or not self.coherence_radius > 0:
@@ -201,7 +206,7 @@ class EpipolarTables:
 
 
 def view_costs(u: np.ndarray, front: np.ndarray, obs: MarkerObservation, tables: EpipolarTables,
-               gate_px: float) -> tuple[np.ndarray, np.ndarray]:
+               gate_px: float, use_confidence: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Per-view costs of the module docstring.
 
     u: (P, L, C, 2) projections; front: (P, L, C) bool, in front of the camera.
@@ -247,6 +252,9 @@ def view_costs(u: np.ndarray, front: np.ndarray, obs: MarkerObservation, tables:
         n = np.maximum(frontf.sum(axis=-1, keepdims=True) - frontf, 1)    # views b != a in front
     c = 0.5 * r2 + 0.25 * epi / n                                     # 1/2 r^2 + 1/2 mean d_sym^2 / 2
     cost = np.where(kept & np.isfinite(c), np.minimum(c, tau2), tau2)
+    if use_confidence:
+        w = np.clip(obs.confidence, 0.0, 1.0).astype(cost.dtype)[np.arange(L)[:, None], np.arange(C), k]
+        cost = np.where(kept, w * cost + (1 - w) * tau2, cost)
     return cost, kept
 
 
@@ -276,6 +284,8 @@ class MarkerEnergy:
             self.tables = tables
             self.obs_cast = obs
             self._lines = np.ascontiguousarray(tables.lines.reshape(L, C, K, C, 3))
+            self._weight = (np.ascontiguousarray(np.clip(obs.confidence, 0.0, 1.0), np.float64)
+                            if settings.use_confidence else np.ones(obs.valid.shape))
             self._cams = (np.ascontiguousarray(rig.R, np.float64), np.ascontiguousarray(rig.t, np.float64),
                           np.ascontiguousarray(rig.K, np.float64))
             m = landmarks.model
@@ -320,10 +330,11 @@ class MarkerEnergy:
         if self.compiled:
             cost, _ = view_costs_fused(np.ascontiguousarray(X, np.float64), *self._cams, self.obs.xy,
                                        self.obs.valid, self._lines, self.tables.epipoles,
-                                       float(s.gate_px) ** 2, float(s.near))
+                                       float(s.gate_px) ** 2, float(s.near), self._weight)
         else:
             u, depth = pinhole_project(self.rig, X)
-            cost, _ = view_costs(u, depth > s.near, self.obs_cast, self.tables, s.gate_px)
+            cost, _ = view_costs(u, depth > s.near, self.obs_cast, self.tables, s.gate_px,
+                                 s.use_confidence)
         P, L, C = cost.shape
         markers = cost.sum(axis=2) / (L * C)
         coh = np.zeros((P, L), cost.dtype)

@@ -77,11 +77,12 @@ def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, nam
 
 def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "marker_apf",
                         gate: float = 0.04, min_views: int = 3, coherence_radius: float = 0.15,
-                        coherence_weight: float = 1.0, landmarks: str | Sequence = "auto",
-                        init: Mapping | None = None, refine: Mapping | None = None,
-                        offsets: Mapping | None = None, **options):
+                        coherence_weight: float = 1.0, use_confidence: bool = False,
+                        landmarks: str | Sequence = "auto", init: Mapping | None = None,
+                        refine: Mapping | None = None, offsets: Mapping | None = None, **options):
     """The marker tracker of Canton-Ferrer et al. 2010 (``conf/tracker/marker_apf.yaml``).
-    gate: the outlier threshold tau as a fraction of the image diagonal. Search keys go to
+    gate: the outlier threshold tau as a fraction of the image diagonal; use_confidence: the
+    likelihood weighs detections by their confidence. Search keys go to
     :class:`APFSettings` (the marker defaults: 100 x 6, survival 0.25, shrink 0.85), the
     rest (init_std, prediction_damping, min_confidence, crossover, keep_particles) to
     :class:`MarkerAPFTracker`."""
@@ -92,7 +93,8 @@ def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     settings = _search(options, layers=6, survival=0.25, shrink=0.85)
     diagonal = float(np.hypot(*np.asarray(rig.sizes, np.float64).mean(axis=0)))
     likelihood = MarkerLikelihood(gate_px=gate * diagonal, min_views=min_views,
-                                  coherence_radius=coherence_radius, coherence_weight=coherence_weight)
+                                  coherence_radius=coherence_radius, coherence_weight=coherence_weight,
+                                  use_confidence=use_confidence)
     if not isinstance(landmarks, str):
         landmarks = [x if isinstance(x, str) else dict(x) for x in landmarks]
     if "init_std" in options:
