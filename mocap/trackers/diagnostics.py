@@ -3,7 +3,8 @@
 :class:`StepDiagnostics` is ``Estimate.diagnostics``: energies per term, the annealed
 search (:class:`mocap.trackers.anneal.AnnealTrace`, one :class:`LayerTrace` per layer), the
 local optimisation (:class:`LocalTrace`), decisions (:class:`Misalignment`: misaligned
-limbs, APF called), the marker tracker's landmarks (:class:`LandmarkReport`), timings.
+limbs, APF called), the marker tracker's landmarks (:class:`LandmarkReport`), a failure
+injected by an experiment (:class:`Injection`), timings.
 
 Consumers (the recording sink, the run metrics) read the typed fields; :meth:`StepDiagnostics.scalars`
 flattens every numeric field of every report into ``{"group/name": value}``, so a field a
@@ -86,6 +87,16 @@ class RefineTrace:
 
 
 @dataclass(frozen=True)
+class Injection:
+    """A failure an experiment injected at this frame (:mod:`mocap.trackers.failures`):
+    ``skipped``: the frame never reached the tracker (the estimate is the last one held);
+    ``perturbed``: the tracker was restarted from a perturbed pose before this frame."""
+
+    skipped: bool = False
+    perturbed: bool = False
+
+
+@dataclass(frozen=True)
 class StepDiagnostics:
     """Everything one step reports. ``initial``: the estimate is the initial pose."""
 
@@ -98,6 +109,7 @@ class StepDiagnostics:
     marker_refine: RefineTrace | None = None
     timings: Mapping[str, float] = field(default_factory=dict)
     ignored_views: tuple[str, ...] = ()
+    injection: Injection | None = None
     initial: bool = False
 
     @property
@@ -168,6 +180,8 @@ class StepDiagnostics:
                      reprojection_px=lm.reprojection_px)
         if self.marker_refine is not None:
             d["refinement"] = dataclasses.asdict(self.marker_refine)
+        if self.injection is not None:
+            d["injection"] = dataclasses.asdict(self.injection)
         return d
 
     # read-only mapping access to the old dictionary form
