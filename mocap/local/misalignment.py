@@ -3,6 +3,14 @@
 A limb's error is the share of its vertices that project outside the observed silhouette
 (dilated by ``tolerance_px`` at the check's resolution), averaged over the views. A limb
 above ``threshold`` is misaligned, and so is every limb after it in the kinematic chain.
+Under model mismatch a limb of the right pose still has vertices outside (a body fitted by
+another model is thicker here, thinner there), so with ``relative`` (the default) the first
+check sets each limb's baseline error, at most ``baseline_cap`` (a limb already far off at
+the first check stays detectable), and a limb is misaligned when its error exceeds the
+baseline by ``threshold`` (the paper's absolute test when ``relative=False``).
+The check runs at ``resolution`` px on the images' longest side (an absolute size, so that a
+forearm covers the same few pixels whatever the cameras' resolution; ``scale`` relative to the
+cameras instead, if given).
 """
 
 from __future__ import annotations
@@ -36,9 +44,14 @@ def descendants(parents: np.ndarray, joint: int) -> list[int]:
 
 
 class MisalignmentDetector:
-    def __init__(self, body: BodyModel, rig: Rig, threshold: float = 0.15, scale: float = 0.25,
-                 tolerance_px: int = 1):
+    def __init__(self, body: BodyModel, rig: Rig, threshold: float = 0.15, resolution: int = 256,
+                 tolerance_px: int = 1, scale: float | None = None, relative: bool = True,
+                 baseline_cap: float = 0.15):
+        if scale is None:
+            scale = min(1.0, resolution / float(np.max(rig.sizes)))
         self.body, self.threshold, self.scale = body, threshold, scale
+        self.relative, self.baseline_cap = relative, baseline_cap
+        self.baseline: np.ndarray | None = None
         self.small = rig.scaled(scale)
         self.tolerance = tolerance_px
         self.limbs = [j for j in range(body.num_joints) if np.any(body.part_labels == j)]
@@ -66,8 +79,11 @@ class MisalignmentDetector:
 
     def __call__(self, vertices: np.ndarray, masks: np.ndarray) -> LimbCheck:
         err = self.limb_errors(vertices, masks)
+        if self.relative and self.baseline is None:
+            self.baseline = np.minimum(np.nan_to_num(err), self.baseline_cap)
+        base = self.baseline if self.relative else 0.0
         flagged = np.zeros(self.body.num_joints, bool)
-        for j in np.flatnonzero(err > self.threshold):
+        for j in np.flatnonzero(err - base > self.threshold):
             flagged[descendants(self.body.parents, int(j))] = True
         names = [self.body.joint_names[j] for j in np.flatnonzero(flagged)]
         return LimbCheck(flagged, names, {self.body.joint_names[j]: float(err[j]) for j in self.limbs})
