@@ -1,5 +1,5 @@
 """Several people: identity switches and per-person error of the multi-person marker tracker
-(mocap/trackers/marker_people.py) against tracking each person alone.
+(mocap/trackers/markers/people.py) against tracking each person alone.
 
     python experiments/marker_people.py --seeds 0 1 2 --frames 50 --out marker_people.json
 
@@ -28,7 +28,7 @@ from mocap.data.crowd import crossing_scene, crowd_detections
 from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
 from mocap.trackers.factory import make_marker_tracker
-from mocap.trackers.marker_people import PeopleTracker
+from mocap.trackers.markers.people import PeopleTracker
 from mocap.trackers.run import frame_of
 
 REPO = Path(__file__).resolve().parents[1]

@@ -13,11 +13,11 @@ constant body-frame offset per keypoint (``--offset-mm``: std per axis; the dete
 "hip" is not our hip joint). Errors are measured against the true keypoint landmarks
 without offsets, in mm, mean over keypoints and frames 1..F-1:
 
-* ``triangulation``: :func:`mocap.trackers.marker_init.triangulate_candidates` per frame
+* ``triangulation``: :func:`mocap.trackers.markers.startup.triangulate_candidates` per frame
   (every pair of candidates a hypothesis, most inliers within the gate wins, re-triangulated
   from its inliers); landmarks it cannot triangulate are left out (its coverage is printed);
 * ``marker_apf`` variants: the tracker (conf/tracker/marker_apf.yaml) started by its own
-  start-up on frame 0; ``refine``: with 3 Gauss-Newton steps (mocap/trackers/marker_refine.py);
+  start-up on frame 0; ``refine``: with 3 Gauss-Newton steps (mocap/trackers/markers/refine.py);
   ``refine_noconf``: the same without confidence weights; ``refine_offsets``: plus keypoint
   offsets learned over 10 frames; ``conf`` / ``refine_conf`` / ``refine_conf_offsets``: the
   same with the confidence-weighted likelihood (``use_confidence``). The tracker's error is
@@ -41,6 +41,7 @@ import numpy as np
 import yaml
 
 from mocap.body import load_body
+from mocap.body.catalogue import make_landmark_set
 from mocap.cameras import Rig, project, rig_from_config
 from mocap.data.generate import make_synthetic
 from mocap.data.openpose import LAYOUTS
@@ -49,8 +50,7 @@ from mocap.data.sequence_io import load_sequence
 from mocap.energy.markers import arrange_detections
 from mocap.eval.by_name import SKELETONS
 from mocap.trackers.factory import make_marker_tracker
-from mocap.trackers.marker_init import triangulate_candidates
-from mocap.trackers.marker_landmarks import make_landmark_set
+from mocap.trackers.markers.startup import triangulate_candidates
 from mocap.trackers.run import frame_of, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]

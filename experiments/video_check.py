@@ -22,13 +22,13 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
+from mocap.body.catalogue import make_landmark_set
 from mocap.eval.keypoint_metrics import triangulate_detections
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.eval.video_metrics import lost_frames, offset_reprojection, silhouette_iou
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
-from mocap.trackers.marker_landmarks import make_landmark_set
 from mocap.trackers.run import frame_of, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]

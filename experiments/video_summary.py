@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 from hydra.utils import instantiate
 
+from mocap.body.catalogue import make_landmark_set
 from mocap.eval.keypoint_metrics import triangulate_detections
 from mocap.eval.video_metrics import fit_offsets, lost_frames, offset_reprojection
-from mocap.trackers.marker_landmarks import make_landmark_set
 
 
 def main(folder: str, reference: str = "marker_apf") -> dict:

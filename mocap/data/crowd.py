@@ -12,10 +12,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mocap.body.catalogue import make_landmark_set
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig, project
 from mocap.data.sequence import Detections
-from mocap.trackers.marker_landmarks import make_landmark_set
 
 
 def crowd_detections(body: BodyModel, rig: Rig, chis: np.ndarray, alphas: np.ndarray,

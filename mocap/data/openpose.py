@@ -33,7 +33,7 @@ from mocap.cameras import Rig, load_calibration, project, triangulate
 from mocap.data.sequence import Detections, Sequence
 
 #: Keypoint layouts: keypoint index -> landmark name of the catalogue
-#: (mocap/trackers/marker_landmarks.py); None: a keypoint the tracker does not use.
+#: (mocap/body/catalogue.py); None: a keypoint the tracker does not use.
 #:
 #: ============  ====  ========================================================================
 #: layout        K     detector / notes

@@ -306,7 +306,7 @@ class MarkerEnergy:
     @staticmethod
     def _rest_points(landmarks: LandmarkSet, shaped: ShapedBody, offsets: np.ndarray | None) -> np.ndarray:
         """Rest landmarks (L, 3), plus keypoint offsets in their joints' rest frames
-        (:mod:`mocap.trackers.marker_offsets`) when given."""
+        (:mod:`mocap.trackers.markers.offsets`) when given."""
         rest = np.asarray(landmarks.rest_points(shaped), np.float64)
         return rest if offsets is None else rest + offsets
 

@@ -13,12 +13,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mocap.body.catalogue import make_landmark_set
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig, project, triangulate
 from mocap.data.sequence import Detections
 from mocap.data.sequence import Sequence as MocapSequence
-from mocap.trackers.base import Estimate
-from mocap.trackers.marker_landmarks import make_landmark_set
+from mocap.eval.estimates import FrameEstimate
 
 #: landmark pairs joined by one bone (used when both are present)
 BONES: tuple[tuple[str, str], ...] = (
@@ -108,7 +108,7 @@ def keypoint_metrics(rig: Rig, landmarks: np.ndarray, names: Sequence[str], dete
     }
 
 
-def keypoint_run_metrics(body: BodyModel, seq: MocapSequence, estimates: list[Estimate]) -> dict:
+def keypoint_run_metrics(body: BodyModel, seq: MocapSequence, estimates: list[FrameEstimate]) -> dict:
     """:func:`keypoint_metrics` of a run's estimates (one per frame, frame 0 the
     initialisation) on the landmarks named by the detection labels, plus the same metrics of
     per-frame triangulation under ``triangulation``."""

@@ -2,7 +2,7 @@
 the motion. Written into metrics.json (``quality``) and printed as warnings.
 
 * ``implausible_bones``: bones of the run's body (fitted shape) outside the PCA shape model's
-  mean +- 3 sigma (:mod:`mocap.trackers.marker_shape`), e.g. a thigh fitted to two people.
+  mean +- 3 sigma (:mod:`mocap.body.bone_lengths`), e.g. a thigh fitted to two people.
 * ``high_reprojection``: median reprojection error (landmark to its keypoint) above
   ``max(reprojection_px, reprojection_fraction x image diagonal)``.
 * ``lost_subject``: runs of at least ``lost_frames`` frames in which fewer than a third of
@@ -17,7 +17,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from mocap.trackers.marker_shape import skeleton_length_model
+from mocap.body.bone_lengths import skeleton_length_model
 
 
 def lost_runs(lost: np.ndarray, min_length: int) -> list[tuple[int, int]]:

@@ -8,9 +8,9 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
+from mocap.eval.estimates import FrameEstimate
 from mocap.eval.metrics import mmta_mmtp
 from mocap.eval.mismatch import LOST_MM, fit_oracle, mismatch_metrics
-from mocap.trackers.base import Estimate
 
 
 def _valid(gt, F: int):
@@ -32,7 +32,7 @@ def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None) ->
     return _ORACLES[key]
 
 
-def run_metrics(body: BodyModel, seq: Sequence, estimates: list[Estimate], seconds: list[float]) -> dict:
+def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], seconds: list[float]) -> dict:
     """Accuracy against ground truth (when the sequence has it), speed and effort.
 
     estimates: one per frame, frame 0 being the initialisation; seconds: step time per frame.

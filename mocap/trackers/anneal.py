@@ -15,7 +15,7 @@ What the callers pass in:
 - the silhouette APF (:func:`mocap.trackers.apf.run_apf`): the reflected Gaussian
   :func:`perturb`, with the global twist perturbed about the posed root point;
 - the hybrid tracker: the same with a free-DOF mask (the misaligned limbs);
-- the marker tracker (:func:`mocap.trackers.marker_anneal.run_annealing`): the Gaussian
+- the marker tracker (:func:`mocap.trackers.markers.anneal.run_annealing`): the Gaussian
   truncated to the joint limits and crossover between body parts (``groups``: when the
   energy returns per-landmark costs (P, L), each group's DOFs are resampled by the energy of
   that group's landmarks alone, Deutscher & Reid 2005, Sec. 5);

@@ -87,7 +87,7 @@ def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     rest (init_std, prediction_damping, min_confidence, crossover, keep_particles) to
     :class:`MarkerAPFTracker`."""
     from mocap.energy.markers import MarkerLikelihood
-    from mocap.trackers.marker_apf import MarkerAPFTracker, make_init, make_offsets, make_refinement
+    from mocap.trackers.markers.tracker import MarkerAPFTracker, make_init, make_offsets, make_refinement
 
     options = dict(options)
     settings = _search(options, layers=6, survival=0.25, shrink=0.85)

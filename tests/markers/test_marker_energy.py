@@ -4,6 +4,7 @@ against a naive reference, gating and the temporal-coherence term."""
 import numpy as np
 import pytest
 
+from mocap.body.catalogue import probe_poses
 from mocap.body.landmarks import LandmarkSet
 from mocap.cameras import fundamental_matrices, project, ring_rig
 from mocap.data.sequence import Detections
@@ -16,7 +17,6 @@ from mocap.energy.markers import (
     pinhole_project,
     view_costs,
 )
-from mocap.trackers.marker_landmarks import probe_poses
 
 
 @pytest.fixture(scope="module")

@@ -4,10 +4,10 @@ references: forward kinematics (LandmarkSet.positions) and view_costs."""
 import numpy as np
 import pytest
 
+from mocap.body.catalogue import make_landmark_set
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
 from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, arrange_detections
-from mocap.trackers.marker_landmarks import make_landmark_set
 
 
 @pytest.fixture(scope="module")

@@ -1,9 +1,9 @@
-"""Keypoint-to-landmark offsets (mocap/trackers/marker_offsets.py)."""
+"""Keypoint-to-landmark offsets (mocap/trackers/markers/offsets.py)."""
 
 import numpy as np
 
 from mocap.body.twists import se3_exp
-from mocap.trackers.marker_offsets import OffsetLearning, local_residuals, robust_offsets
+from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
 
 
 def test_residuals_in_the_joint_frame_recover_a_body_fixed_offset():

@@ -1,4 +1,4 @@
-"""Several people with the marker tracker (mocap/trackers/marker_people.py)."""
+"""Several people with the marker tracker (mocap/trackers/markers/people.py)."""
 
 from pathlib import Path
 
@@ -11,7 +11,7 @@ from mocap.data.crowd import crossing_scene, crowd_detections
 from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
 from mocap.trackers.factory import make_marker_tracker
-from mocap.trackers.marker_people import PeopleTracker
+from mocap.trackers.markers.people import PeopleTracker
 from mocap.trackers.run import frame_of
 
 REPO = Path(__file__).resolve().parents[2]

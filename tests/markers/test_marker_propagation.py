@@ -1,14 +1,14 @@
 """Kinematically constrained propagation (truncated Gaussians) and the annealing loop with
-crossover (mocap/trackers/marker_propagation.py, marker_anneal.py)."""
+crossover (mocap/trackers/markers/propagation.py, marker_anneal.py)."""
 
 import numpy as np
 import pytest
 from scipy.stats import truncnorm
 
+from mocap.body.catalogue import dof_moves, make_landmark_set
 from mocap.trackers.apf import APFSettings, find_beta
-from mocap.trackers.marker_anneal import find_betas, part_groups, run_annealing
-from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set
-from mocap.trackers.marker_propagation import (
+from mocap.trackers.markers.anneal import find_betas, part_groups, run_annealing
+from mocap.trackers.markers.propagation import (
     gibbs_truncated_normal,
     propagate_truncated,
     truncated_normal,

@@ -1,13 +1,13 @@
-"""Gauss-Newton refinement of the marker tracker's estimate (mocap/trackers/marker_refine.py)."""
+"""Gauss-Newton refinement of the marker tracker's estimate (mocap/trackers/markers/refine.py)."""
 
 import numpy as np
 
+from mocap.body.catalogue import make_landmark_set
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
 from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, arrange_detections
-from mocap.trackers.marker_init import pinhole_rig
-from mocap.trackers.marker_landmarks import make_landmark_set
-from mocap.trackers.marker_refine import Refinement, refine_pose
+from mocap.trackers.markers.refine import Refinement, refine_pose
+from mocap.trackers.markers.startup import pinhole_rig
 
 
 def test_refinement_recovers_a_perturbed_pose_from_exact_detections(body64):

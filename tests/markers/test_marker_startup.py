@@ -1,5 +1,5 @@
-"""The marker tracker's start-up with other people in view (mocap/trackers/marker_apf.py
-initial_estimate, mocap/trackers/marker_associate.py, mocap/trackers/marker_shape.py)."""
+"""The marker tracker's start-up with other people in view (mocap/trackers/markers/tracker.py
+initial_estimate, mocap/trackers/markers/associate.py, mocap/body/bone_lengths.py)."""
 
 from pathlib import Path
 
@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
+from mocap.body.bone_lengths import shrink_to_bounds, skeleton_length_model
+from mocap.body.catalogue import make_landmark_set, probe_poses
 from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import fundamental_matrices, project, rig_from_config
 from mocap.data.crowd import crowd_detections
@@ -14,10 +16,8 @@ from mocap.data.motion import generate_motion
 from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
 from mocap.trackers.factory import make_marker_tracker
-from mocap.trackers.marker_associate import associate_people, skeletons_of
-from mocap.trackers.marker_init import pinhole_rig
-from mocap.trackers.marker_landmarks import make_landmark_set, probe_poses
-from mocap.trackers.marker_shape import shrink_to_bounds, skeleton_length_model
+from mocap.trackers.markers.associate import associate_people, skeletons_of
+from mocap.trackers.markers.startup import pinhole_rig
 from mocap.trackers.run import frame_of
 
 REPO = Path(__file__).resolve().parents[2]

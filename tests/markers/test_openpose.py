@@ -134,7 +134,7 @@ def test_a_body25_recording_read_as_body25b_is_detected(tmp_path):
 
 
 def test_every_layout_has_its_documented_size_and_known_landmarks():
-    from mocap.trackers.marker_landmarks import CATALOGUE
+    from mocap.body.catalogue import CATALOGUE
 
     sizes = {"BODY_25B": 25, "BODY_25": 25, "COCO": 18, "COCO_17": 17, "HALPE_26": 26, "MEDIAPIPE_33": 33}
     assert {k: len(v) for k, v in LAYOUTS.items()} == sizes

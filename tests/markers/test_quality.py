@@ -1,5 +1,5 @@
 """Quality flags of a run (mocap/eval/quality.py) and the shape model's bone-length bounds
-(mocap/trackers/marker_shape.py)."""
+(mocap/body/bone_lengths.py)."""
 
 from pathlib import Path
 
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from mocap.body import load_body
+from mocap.body.bone_lengths import skeleton_length_model
 from mocap.eval.quality import lost_runs, quality_flags
 from mocap.trackers.base import Estimate
-from mocap.trackers.marker_shape import skeleton_length_model
 
 REPO = Path(__file__).resolve().parents[2]
 

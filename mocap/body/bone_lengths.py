@@ -1,7 +1,7 @@
 """Plausibility of a fitted body size: the PCA shape model's spread of every bone length.
 
 The shape coefficients alpha are standardised (alpha ~ N(0, I) over the training bodies),
-and the rest landmarks are linear in them (:func:`mocap.trackers.marker_landmarks.rest_point_basis`:
+and the rest landmarks are linear in them (:func:`mocap.body.catalogue.rest_point_basis`:
 R(alpha) = R0 + sum_k alpha_k B_k). To first order the length of a bone (i, j) is
 l(alpha) = l0 + g . alpha with g_k = u_ij . (B_ki - B_kj), u_ij the unit bone direction, so its
 standard deviation over the model's bodies is |g|. A fitted shape is *plausible* when every

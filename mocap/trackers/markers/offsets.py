@@ -5,7 +5,7 @@ the hip joint centres, and a body that our shape space cannot reproduce puts its
 shoulders centimetres from where our model's joints are. With the offset o_l constant in the
 frame of the landmark's joint, the keypoint is G_j(chi) (r_l + o_l). Over the first
 ``frames`` tracked frames every keypoint is triangulated robustly
-(:func:`mocap.trackers.marker_init.triangulate_candidates`) and brought into its joint's rest
+(:func:`mocap.trackers.markers.startup.triangulate_candidates`) and brought into its joint's rest
 frame with the tracker's estimate: o_l = median_t G_j(chi_t)^-1 X_l,t - r_l (needs
 ``min_samples`` frames), its norm clipped to ``max_norm`` metres. From then on the
 likelihood projects r_l + o_l: the pose is fitted to what the detector marks, and the

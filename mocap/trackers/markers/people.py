@@ -2,7 +2,7 @@
 identities kept across frames.
 
 Start-up (:meth:`PeopleTracker.start`): the people of the first frame are associated across
-views by whole-skeleton epipolar consistency (:mod:`mocap.trackers.marker_associate`); each
+views by whole-skeleton epipolar consistency (:mod:`mocap.trackers.markers.associate`); each
 person seen in ``min_views`` or more views gets a track (id 0, 1, ... in the association's
 order: most views first), initialised by the tracker's own start-up on that person's
 detections. ``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id, or a
@@ -28,8 +28,8 @@ from scipy.optimize import linear_sum_assignment
 from mocap.data.sequence import Detections
 from mocap.energy.markers import pinhole_project
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.marker_apf import MarkerAPFTracker
-from mocap.trackers.marker_associate import associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.tracker import MarkerAPFTracker
 
 
 @dataclass

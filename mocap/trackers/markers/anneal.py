@@ -1,6 +1,6 @@
 """The marker tracker's annealing: the core :func:`mocap.trackers.anneal.anneal` with the
 truncated Gaussian of Canton-Ferrer et al. 2010, Sec. 3.5
-(:func:`mocap.trackers.marker_propagation.propagate_truncated`) as its propagation, and
+(:func:`mocap.trackers.markers.propagation.propagate_truncated`) as its propagation, and
 crossover between body parts (the soft partitioning / crossover of Deutscher & Reid 2005,
 Sec. 5): when the energy returns per-landmark costs (P, L) and ``groups`` lists disjoint
 sets of DOFs with the landmarks they move (e.g. one arm), every layer resamples the whole
@@ -28,7 +28,7 @@ from mocap.trackers.anneal import (  # noqa: F401  (re-exported for existing cal
     part_weights,
 )
 from mocap.trackers.anneal import particle_spread as spread_of  # noqa: F401
-from mocap.trackers.marker_propagation import propagate_truncated
+from mocap.trackers.markers.propagation import propagate_truncated
 
 
 def part_groups(dof_moves: np.ndarray) -> list[PartGroup]:

@@ -4,11 +4,11 @@ An annealed particle filter over the body's pose, fed by 2D marker (or keypoint)
 detections in calibrated views: the likelihood of :mod:`mocap.energy.markers` (outlier
 gating, generalised symmetric epipolar distance, occlusion management with temporal
 coherence), survival-rate annealing, propagation by a Gaussian truncated to the joint
-limits (:mod:`mocap.trackers.marker_propagation`), and initialisation from triangulated
-detections with the body's size fitted to the subject (:mod:`mocap.trackers.marker_init`).
+limits (:mod:`mocap.trackers.markers.propagation`), and initialisation from triangulated
+detections with the body's size fitted to the subject (:mod:`mocap.trackers.markers.startup`).
 
 The landmark set is configurable: ``"auto"`` fits every detection label the catalogue
-knows (:mod:`mocap.trackers.marker_landmarks`), so the same tracker runs on synthetic
+knows (:mod:`mocap.body.catalogue`), so the same tracker runs on synthetic
 markers and on OpenPose keypoints.
 """
 
@@ -19,6 +19,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mocap.body.bone_lengths import length_model, shrink_to_bounds, skeleton_length_model
+from mocap.body.catalogue import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.root_motion import predict_root
@@ -36,19 +38,17 @@ from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
-from mocap.trackers.marker_anneal import PartGroup, part_groups, run_annealing
-from mocap.trackers.marker_associate import associate_people, person_detections, skeletons_of
-from mocap.trackers.marker_init import (
+from mocap.trackers.markers.anneal import PartGroup, part_groups, run_annealing
+from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
+from mocap.trackers.markers.refine import Refinement, refine_pose
+from mocap.trackers.markers.startup import (
     fit_shape,
     neutral_pose,
     pinhole_rig,
     root_rigid,
     triangulate_candidates,
 )
-from mocap.trackers.marker_landmarks import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
-from mocap.trackers.marker_offsets import OffsetLearning, local_residuals, robust_offsets
-from mocap.trackers.marker_refine import Refinement, refine_pose
-from mocap.trackers.marker_shape import length_model, shrink_to_bounds, skeleton_length_model
 from mocap.trackers.step import AnnealedStep
 
 
@@ -152,13 +152,13 @@ class MarkerAPFTracker(AnnealedStep):
 
         1. Sources of 3D landmarks: when the detections group keypoints into skeletons
            (``Detections.person``), the people associated across views by whole-skeleton
-           epipolar consistency (:mod:`mocap.trackers.marker_associate`), the subject being
+           epipolar consistency (:mod:`mocap.trackers.markers.associate`), the subject being
            the one seen in the most views (then nearest the capture centre), triangulated
            from that person's detections only; and always the per-landmark RANSAC
            triangulation of every candidate (:func:`triangulate_candidates`).
         2. Per source, the shape fitted to the rigid landmark distances, pairs more than
            ``init.outlier_sigma`` standard deviations of the shape model from their mean
-           ignored (:mod:`mocap.trackers.marker_shape`); a fitted body with a bone outside
+           ignored (:mod:`mocap.body.bone_lengths`); a fitted body with a bone outside
            the model's +-``init.bound_sigma`` sigma is shrunk towards the mean shape until
            every bone is inside (flagged in ``start_up_flags``). The mean shape is a
            hypothesis too.

@@ -4,7 +4,7 @@ to the measured bone lengths, and place a neutral pose at the measured position 
 
 The paper scales the limbs from the subject's height; our body has a PCA shape space, so
 the shape coefficients are fitted to the lengths of every landmark pair that no pose can
-change (:func:`mocap.trackers.marker_landmarks.rigid_pairs`). The paper takes the heading
+change (:func:`mocap.body.catalogue.rigid_pairs`). The paper takes the heading
 from the direction of motion; with a single frame we take it from the torso landmarks
 (a rotation about the vertical fitted to those rigidly attached to the root).
 """
@@ -15,12 +15,12 @@ import itertools
 
 import numpy as np
 
+from mocap.body.catalogue import probe_poses
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
 from mocap.body.twists import se3_log
 from mocap.cameras import Rig, triangulate
 from mocap.energy.markers import MarkerObservation, pinhole_project
-from mocap.trackers.marker_landmarks import probe_poses
 
 
 def pinhole_rig(rig: Rig) -> Rig:
