@@ -61,11 +61,11 @@ HUMANEVA_LANDMARKS = {"thorax": "neck_base", "pelvis": "mid_hip"}
 HUMANEVA = ("pelvis", "thorax", "head", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow",
             "r_wrist", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle")
 VARIANTS = {
-    "base": {},
+    "base": {"refine": {"iterations": 0}},
     "refine": {"refine": {"iterations": 3}},
     "refine_noconf": {"refine": {"iterations": 3, "use_confidence": False}},
     "refine_offsets": {"refine": {"iterations": 3}, "offsets": {"frames": 10}},
-    "conf": {"use_confidence": True},
+    "conf": {"refine": {"iterations": 0}, "use_confidence": True},
     "refine_conf": {"refine": {"iterations": 3}, "use_confidence": True},
     "refine_conf_offsets": {"refine": {"iterations": 3}, "offsets": {"frames": 10}, "use_confidence": True},
 }

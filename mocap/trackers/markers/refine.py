@@ -30,7 +30,7 @@ class Refinement:
     huber_px: robust scale; prior_std: per-DOF prior width around the APF estimate;
     use_confidence: weight residuals by detection confidence; step: finite difference."""
 
-    iterations: int = 0
+    iterations: int = 3
     gate_px: float | None = None
     huber_px: float = 4.0
     prior_std: float = 0.1
