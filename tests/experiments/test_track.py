@@ -76,22 +76,31 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
     with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
         cfg = compose("track", overrides=[f"+sweep={sweep}"], return_hydra_config=True)
     params = dict(cfg.hydra.sweeper.params)
-    assert params and cfg.hydra.runtime.choices.tracker == "marker_apf"
+    assert params
     point = {}
     for key, values in params.items():
         assert OmegaConf.select(cfg, key) is not None or key == "seed", key
         point[key] = str(values).split(",")[-1]
     overrides = [f"{k}={v}" for k, v in point.items() if k != "seed"]
+    tracker = point.get("tracker", cfg.hydra.runtime.choices.tracker)
     budget = [o for o in ("tracker.particles=8", "tracker.layers=2") if o.split("=")[0] not in point]
+    if tracker == "local":
+        budget = []
+    if cfg.init.mode == "tracker":           # a self-initialising sweep: a cheap initialisation
+        budget += ["+tracker.initialization.rounds=0", "+tracker.initialization.hypotheses=0",
+                   "+tracker.initialization.pose_particles=8", "+tracker.initialization.pose_layers=2",
+                   f"init.cache={tmp_path / 'cache'}"]
     r = run_track(tmp_path, f"+sweep={sweep}", "frames=2", *budget, *overrides)
     assert r.returncode == 0, r.stderr[-3000:]
     m = json.loads((tmp_path / "metrics.json").read_text())
-    assert m["tracker"] == "marker_apf" and m["frames"] == 2 and np.isfinite(m["mpjpe_mm"])
+    assert m["tracker"] == tracker and m["frames"] == 2 and np.isfinite(m["mpjpe_mm"])
     stored = OmegaConf.load(tmp_path / ".hydra" / "config.yaml")
     for k, v in point.items():
-        if k != "seed":
+        if k in ("data", "tracker"):                       # config groups: chosen as swept
+            assert f"{k}={v}" in OmegaConf.load(tmp_path / ".hydra" / "overrides.yaml"), k
+        elif k != "seed":
             assert str(OmegaConf.select(stored, k)) == v, k
-    assert not (tmp_path / "recording.rrd").exists()      # the sweeps switch recording off
+    assert (tmp_path / "recording.rrd").exists() == bool(cfg.recording.enabled)
 
 
 @pytest.mark.slow
