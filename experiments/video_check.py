@@ -13,11 +13,11 @@ alpha) and recording.rrd (video, masks and the projected body per view) into the
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import hydra
 import numpy as np
+from _harness import parallel_jobs
 from hydra.core.hydra_config import HydraConfig
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
@@ -29,6 +29,8 @@ from mocap.eval.run_metrics import run_metrics
 from mocap.eval.video_metrics import lost_frames, offset_reprojection, silhouette_iou
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
+from mocap.threads import resolve_threads
+from mocap.trackers.init_cache import initial_estimate
 from mocap.trackers.run import frame_of, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
@@ -45,9 +47,12 @@ def main(cfg: DictConfig) -> None:
     tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=seq.rig,
                                                         rng=np.random.default_rng([cfg.seed, 1]),
                                                         keep_particles=False)
-    t0 = time.perf_counter()
-    init, alpha = tracker.initial_estimate(frame_of(seq, 0))
-    init_seconds = time.perf_counter() - t0
+    # the silhouette trackers of a comparison share one self-initialisation (same body, frame,
+    # rig, settings and seed): init.cache stores it (mocap/trackers/init_cache.py). Only those
+    # are cached: the key holds init_settings, which a keypoint tracker's start-up lacks
+    cache = cfg.init.cache if hasattr(tracker, "init_settings") else None
+    init, alpha, init_info = initial_estimate(tracker, frame_of(seq, 0), cache)
+    init_seconds = float(init_info["seconds"])
     F = seq.num_frames if cfg.frames is None else min(int(cfg.frames), seq.num_frames)
     config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
     sink = make_sink(out_dir, **OmegaConf.to_container(cfg.recording))
@@ -61,7 +66,8 @@ def main(cfg: DictConfig) -> None:
         print(f"{tracker.name}: frame {f + 1}/{F} {seconds:.1f} s", flush=True)
 
     try:
-        result = track_sequence(tracker, seq, init, alpha, F, on_frame=record)
+        result = track_sequence(tracker, seq, init, alpha, F, on_frame=record,
+                                threads=resolve_threads(cfg.get("threads", "auto"), parallel_jobs()))
     except BaseException:
         sink.finish(None, failed=True)
         raise
@@ -89,7 +95,8 @@ def main(cfg: DictConfig) -> None:
         "silhouette_iou_per_view": None if iou is None else dict(zip(seq.rig.names, iou.mean(0).tolist(),
                                                                      strict=True)),
         "lost_frames": lost,
-        "init_seconds": init_seconds,
+        "init_seconds": init_seconds, "init_cached": bool(init_info.get("cached", False)),
+        **({"init_hypotheses": init_info["hypotheses"]} if "hypotheses" in init_info else {}),
         **{k: v for k, v in run_metrics(body, seq, result.estimates, result.seconds).items()
            if k in ("sec_per_frame", "energy_evals_per_frame", "apf_calls_per_frame")},
         "segmentation": seq.meta.get("segmentation"),
