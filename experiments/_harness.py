@@ -88,6 +88,9 @@ def run_tracking(cfg: DictConfig, wrap: Wrap | None = None, extra: Extra | None 
         keep_particles=bool(rec_cfg.enabled and rec_cfg.particles))
     if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work
         tracker.check_sequence(seq)
+    # ground truth this body cannot be scored against fails here, naming the joints, not after
+    # the initialisation and tracking
+    scorer = NameScorer(body, seq.gt) if seq.gt is not None else None
     if cfg.init.mode == "tracker":
         if not hasattr(tracker, "initial_estimate"):
             raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
@@ -104,7 +107,6 @@ def run_tracking(cfg: DictConfig, wrap: Wrap | None = None, extra: Extra | None 
     run_id = metadata.get("run_id", "")
     sink.start(RunInfo(config_yaml, metadata), body, seq)
     shaped = body.shaped(alpha)
-    scorer = NameScorer(body, seq.gt) if seq.gt is not None else None
     recording_seconds = [0.0]
 
     def record(f, est, step_seconds, bar):
