@@ -4,7 +4,8 @@ Initialising from silhouettes (:mod:`mocap.trackers.initialization`) costs tens 
 is the same computation for every silhouette tracker of a comparison: the same body, frame,
 rig, settings and random state give the same result. ``initial_estimate(..., cache=DIR)``
 keys a result by exactly those (a SHA-1 of the body's name and DOFs, the frame's masks, the
-calibration, the tracker's ``init_settings`` and the state of its ``init_rng``), stores it in
+calibration, the tracker's ``init_settings`` and the state of its ``init_rng``; a tracker
+without ``init_settings``, such as the marker tracker, is never cached), stores it in
 ``DIR/<key>.npz`` (written atomically) and reuses it; on a hit the random state is advanced to
 where the computation would have left it, so tracking continues identically. Parallel runs
 of one sweep wanting the same key wait for the first (an advisory file lock, POSIX only).
@@ -36,7 +37,7 @@ def _key(tracker, frame: Frame) -> str:
     h.update(json.dumps([body.name, list(body.dof_names), body.num_shape]).encode())
     h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
     h.update(json.dumps(rig_to_dict(tracker.rig), sort_keys=True, default=str).encode())
-    h.update(repr(getattr(tracker, "init_settings", None)).encode())
+    h.update(repr(tracker.init_settings).encode())
     rng = getattr(tracker, "init_rng", None)
     h.update(json.dumps(rng.bit_generator.state if rng is not None else None, sort_keys=True,
                         default=str).encode())
@@ -48,8 +49,8 @@ def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = No
     """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
     the computation, also on a cache hit), cached (bool), and the initialiser's hypotheses and
     margin where it reports them."""
-    if cache is None or frame.masks is None:
-        return _compute(tracker, frame, None)
+    if cache is None or frame.masks is None or getattr(tracker, "init_settings", None) is None:
+        return _compute(tracker, frame, None)       # only what the key describes is cached
     path = Path(cache) / f"{_key(tracker, frame)}.npz"
     path.parent.mkdir(parents=True, exist_ok=True)
     with _locked(path.with_suffix(".lock")):

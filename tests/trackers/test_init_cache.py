@@ -58,3 +58,14 @@ def test_without_a_cache_nothing_is_written(tmp_path, monkeypatch):
     _, _, info = initial_estimate(t, Frame(index=0, masks=masks, images=None, detections=None))
     assert t.calls == 1 and not info["cached"] and info["seconds"] >= 0
     assert not list(tmp_path.iterdir())
+
+
+def test_a_tracker_without_init_settings_is_never_cached(tmp_path):
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    t = Counting(body, rig)
+    del t.init_settings
+    masks = np.ones((len(rig.names), 4, 4), bool)
+    frame = Frame(index=0, masks=masks, images=None, detections=None)
+    initial_estimate(t, frame, tmp_path)
+    initial_estimate(t, frame, tmp_path)
+    assert t.calls == 2 and not list(tmp_path.iterdir())
