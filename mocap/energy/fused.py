@@ -23,10 +23,9 @@ sets how many.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
+from mocap.energy.fallback import warn_once
 from mocap.render import get_rasterizer
 
 try:
@@ -38,18 +37,13 @@ HAVE_NUMBA = numba is not None
 
 _HV, _DIAG, _LONG = 65536, 91750, 143976        # cvRound(65536 * (1, 1.4f, 2.1969f))
 _INIT = 2**30       # 'far' (OpenCV: INT_MAX); any value > every real distance * 65536
-_warned = False
 
 
 def numba_available() -> bool:
     """True when the compiled kernel can be used; warns once when it cannot."""
-    global _warned
     if HAVE_NUMBA:
         return True
-    if not _warned:
-        warnings.warn("numba is not installed: the silhouette energy runs on the slower numpy "
-                      "path (pip install numba)", RuntimeWarning, stacklevel=3)
-        _warned = True
+    warn_once("silhouette", "the silhouette energy runs on the slower numpy path (pip install numba)")
     return False
 
 

@@ -35,7 +35,6 @@ plus the coherence terms over the same count.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -46,6 +45,7 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import ShapedBody
 from mocap.cameras import Rig, fundamental_matrices, undistort_points
 from mocap.data.sequence import Detections
+from mocap.energy.fallback import warn_once
 
 try:                                    # the compiled kernels need numba; numpy is the fallback
     from mocap.energy.marker_kernel import landmark_points, view_costs_fused
@@ -54,18 +54,13 @@ except ImportError:                     # pragma: no cover - exercised by monkey
     landmark_points = view_costs_fused = None
     HAVE_NUMBA = False
 
-_warned = False
 
 
 def compiled_available() -> bool:
     """True when the compiled marker kernels can be used; warns once when they cannot."""
-    global _warned
     if HAVE_NUMBA:
         return True
-    if not _warned:
-        warnings.warn("numba is not installed: the marker likelihood runs on the slower numpy "
-                      "reference (same energies)", RuntimeWarning, stacklevel=3)
-        _warned = True
+    warn_once("markers", "the marker likelihood runs on the slower numpy reference (same energies)")
     return False
 
 

@@ -9,7 +9,7 @@ import pytest
 from scipy.ndimage import distance_transform_edt
 
 from mocap.cameras import project, ring_rig
-from mocap.energy import fused
+from mocap.energy import fallback, fused
 from mocap.energy.silhouette import SilhouetteEnergy, chamfer_energy, silhouette_target
 from mocap.render.reference import rasterize_reference
 
@@ -84,7 +84,7 @@ def test_fused_distance_transform_is_opencvs_5x5_chamfer():
 def test_without_numba_the_energy_falls_back_to_numpy_and_says_so_once(body, monkeypatch):
     rig, sb, target, chi, numpy_energy = scene(body, particles=2)
     monkeypatch.setattr(fused, "HAVE_NUMBA", False)
-    monkeypatch.setattr(fused, "_warned", False)
+    monkeypatch.setattr(fallback, "WARNED", set())
     with pytest.warns(RuntimeWarning, match="numba is not installed"):
         first = SilhouetteEnergy(sb, rig, scale=1.0)
     with warnings.catch_warnings():

@@ -7,6 +7,7 @@ import pytest
 from mocap.body.catalogue import make_landmark_set
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
+from mocap.energy import fallback
 from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, arrange_detections
 
 
@@ -59,7 +60,7 @@ def test_without_numba_the_likelihood_falls_back_to_numpy_and_says_so_once(body6
     s = MarkerLikelihood(gate_px=30.0)
     compiled = MarkerEnergy(lms, shaped, rig, obs, s)
     monkeypatch.setattr(markers, "HAVE_NUMBA", False)
-    monkeypatch.setattr(markers, "_warned", False)
+    monkeypatch.setattr(fallback, "WARNED", set())
     with pytest.warns(RuntimeWarning, match="numba is not installed"):
         first = MarkerEnergy(lms, shaped, rig, obs, s)
     with warnings.catch_warnings():
