@@ -19,14 +19,36 @@ class Collected:
     problems: list[tuple[str, str]]   # (run dir or job, what is wrong)
 
 
+def _sweep_values(value: str) -> int:
+    """How many values a comma sweep lists; commas inside [], {}, () or quotes do not split."""
+    depth, quote, n = 0, None, 1
+    for ch in value:
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "'\"":
+            quote = ch
+        elif ch in "[{(":
+            depth += 1
+        elif ch in "]})":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            n += 1
+    return n
+
+
 def expected_jobs(sweep_dir: Path) -> int | None:
-    """Number of jobs a Hydra sweep launched, from its multirun.yaml (simple comma sweeps)."""
+    """Number of jobs a Hydra sweep launched, from its multirun.yaml: the sweeper's params (a
+    config such as conf/sweep/*) overridden by the command line's (simple comma sweeps)."""
     path = sweep_dir / "multirun.yaml"
     if not path.is_file():
         return None
-    cfg = yaml.safe_load(path.read_text())
-    overrides = ((cfg or {}).get("hydra", {}).get("overrides", {}) or {}).get("task", []) or []
-    sizes = [len(str(o).split("=", 1)[1].split(",")) for o in overrides if "=" in str(o)]
+    hydra = (yaml.safe_load(path.read_text()) or {}).get("hydra", {}) or {}
+    params = {str(k): str(v) for k, v in ((hydra.get("sweeper", {}) or {}).get("params", {}) or {}).items()}
+    for o in (hydra.get("overrides", {}) or {}).get("task", []) or []:
+        if "=" in str(o):
+            k, v = str(o).split("=", 1)
+            params[k.lstrip("+~")] = v
+    sizes = [_sweep_values(v) for v in params.values()]
     return int(np.prod(sizes)) if sizes else 1
 
 

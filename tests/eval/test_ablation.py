@@ -49,3 +49,18 @@ def test_sweep_rows_seeds_nan_and_no_ground_truth(tmp_path, body):
     md = markdown(table_rows(got.runs), got.problems, "t")
     assert "| 12.0 ± 2.8 |" in md and "| 20.0 |" in md and "± 0.0" not in md
     assert "fp0.3_s1" in md and "reprojection (px)" in md and "jitter (mm)" in md
+
+
+def test_expected_jobs_counts_the_sweep_config_and_the_command_line(tmp_path):
+    """A sweep config's params (conf/sweep/*) overridden by the command line's; commas inside a
+    list value do not count as sweep values."""
+    import yaml
+
+    from mocap.eval.ablation import expected_jobs
+
+    (tmp_path / "multirun.yaml").write_text(yaml.safe_dump({"hydra": {
+        "sweeper": {"params": {"data": "a,b,c", "tracker": "x,y,z,w", "seed": "0,1,2"}},
+        "overrides": {"task": ["+sweep=mismatch", "tracker=x,y", "seed=0", "data.views=[0,2,4,6]",
+                               "'data.noise={holes:2,dilate_px:3}'"]}}}))
+    assert expected_jobs(tmp_path) == 3 * 2 * 1
+    assert expected_jobs(tmp_path / "nothing") is None
