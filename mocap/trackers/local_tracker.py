@@ -38,7 +38,7 @@ class LocalTracker(SilhouetteInitialisation):
                  contour: Mapping | None = None, sift: Mapping | None = None,
                  misalignment: Mapping | None = None, name: str = "local",
                  rng: np.random.Generator | None = None, initialization: Mapping | None = None,
-                 energy_tolerance: float = 0.02):
+                 energy_tolerance: float = 0.0):
         self.body, self.rig, self.name = body, rig, name
         self.init_rng = rng if rng is not None else np.random.default_rng(0)
         self.init_settings = InitSettings(**dict(initialization or {}))
