@@ -120,9 +120,10 @@ def _scores(est: np.ndarray, m: _Matched) -> dict:
     removed, offsets = offset_removed_errors(est, m.gt, m.valid, frames)
     limbs = [k for k, n in enumerate(m.ours) if n in LIMB_JOINTS]
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
+        warnings.simplefilter("ignore", RuntimeWarning)      # all-NaN frames (nothing valid)
         per_frame = np.nanmean(raw, axis=1)
-    return {"raw_mm": _mean_of_frames(raw), "offset_removed_mm": _mean_of_frames(removed),
+        raw_mm = float(np.nanmean(per_frame))
+    return {"raw_mm": raw_mm, "offset_removed_mm": _mean_of_frames(removed),
             "limbs_mm": _mean_of_frames(raw[:, limbs]) if limbs else float("nan"),
             "limbs_offset_removed_mm": _mean_of_frames(removed[:, limbs]) if limbs else float("nan"),
             "frames_lost": int(np.sum(per_frame > LOST_MM)),
@@ -223,12 +224,13 @@ def fit_oracle(body: BodyModel, gt_names: Sequence[str], gt_joints: np.ndarray,
                 chi[i, :6] = se3_log(_kabsch(posed[i, use], m.gt[f, use]))
         return chi
 
+    lo_f, hi_f = np.tile(lo_d, F), np.tile(hi_d, F)
+    per_frame_blocks = block_diag([np.ones((S * 3, D))] * F).tocsr()   # frames are independent
+
     def fit_poses(alpha: np.ndarray, chi0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lo, hi = np.tile(lo_d, F), np.tile(hi_d, F)
-        x0 = np.clip(chi0.ravel(), lo + 1e-9, hi - 1e-9)
+        x0 = np.clip(chi0.ravel(), lo_f + 1e-9, hi_f - 1e-9)
         r = least_squares(lambda x: ((fn(alpha, x.reshape(F, D)) - target) * w).ravel(), x0,
-                          bounds=(lo, hi), jac_sparsity=block_diag([np.ones((S * 3, D))] * F).tocsr(),
-                          method="trf", max_nfev=100)
+                          bounds=(lo_f, hi_f), jac_sparsity=per_frame_blocks, method="trf", max_nfev=100)
         chi = r.x.reshape(F, D)
         cost = (((fn(alpha, chi) - target) * w) ** 2).sum(axis=(1, 2))
         return chi, cost

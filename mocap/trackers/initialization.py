@@ -84,12 +84,12 @@ def mirror_map(body: BodyModel) -> tuple[np.ndarray, np.ndarray]:
     sign = np.ones(len(names))
     rng = np.random.default_rng(0)
     theta = rng.uniform(0.2, 0.4, len(names))
+    flip = [body.joint_names.index(("r_" if j.startswith("l_") else "l_") + j[2:])
+            if j[:2] in ("l_", "r_") else k for k, j in enumerate(body.joint_names)]
     for i in range(len(names)):
         chi = np.zeros(body.num_dofs)
         chi[6 + i] = theta[i]
         want = shaped.joints(chi[None])[0] * mirror
-        flip = [body.joint_names.index(("r_" if j.startswith("l_") else "l_") + j[2:])
-                if j[:2] in ("l_", "r_") else k for k, j in enumerate(body.joint_names)]
         errs = []
         for s in (1.0, -1.0):
             c = np.zeros(body.num_dofs)
