@@ -53,53 +53,127 @@ if HAVE_NUMBA:
     def _chamfer_term2(tmp, bh, bw, obs_r, obs_c):
         """Two-pass 5x5 chamfer transform (OpenCV's distanceTransform_5x5) of the seeds
         (tmp == 0) in the padded (bh + 4, bw + 4) image, far pixels ``_INIT``; returns the sum
-        of the distances at the observed pixels (box coordinates)."""
+        of the distances at the observed pixels (box coordinates).
+
+        Each pass is split per row into the neighbours of the two rows already done (no
+        dependency along the row: LLVM vectorises it into ``cand``) and the serial
+        left/right neighbour; the minimum of the same 8 terms, so the transform is the
+        same integer image as the one-loop form (tested), 2-2.5x faster. ``cand`` is
+        allocated here, not passed in: LLVM only vectorises when it can prove that ``cand``
+        and ``tmp`` do not overlap."""
+        cand = np.empty(bw + 4, np.int32)
         for i in range(2, bh + 2):                       # forward pass
             up2 = tmp[i - 2]
             up1 = tmp[i - 1]
-            row = tmp[i]
             for j in range(2, bw + 2):
-                if row[j] != 0:
-                    t0 = min(up2[j - 1] + _LONG, up2[j + 1] + _LONG, up1[j - 2] + _LONG,
-                             up1[j - 1] + _DIAG, up1[j] + _HV, up1[j + 1] + _DIAG,
-                             up1[j + 2] + _LONG, row[j - 1] + _HV)
-                    row[j] = t0
+                a = min(min(up2[j - 1], up2[j + 1]), min(up1[j - 2], up1[j + 2]))
+                b = min(up1[j - 1], up1[j + 1])
+                cand[j] = min(min(a + _LONG, b + _DIAG), up1[j] + _HV)
+            row = tmp[i]
+            prev = row[1]
+            for j in range(2, bw + 2):
+                r = row[j]
+                if r != 0:
+                    r = min(cand[j], prev + _HV)
+                    row[j] = r
+                prev = r
         for i in range(bh + 1, 1, -1):                   # backward pass
             dn2 = tmp[i + 2]
             dn1 = tmp[i + 1]
+            for j in range(2, bw + 2):
+                a = min(min(dn2[j - 1], dn2[j + 1]), min(dn1[j - 2], dn1[j + 2]))
+                b = min(dn1[j - 1], dn1[j + 1])
+                cand[j] = min(min(a + _LONG, b + _DIAG), dn1[j] + _HV)
             row = tmp[i]
+            nxt = row[bw + 2]
             for j in range(bw + 1, 1, -1):
-                t0 = row[j]
-                if t0 > _HV:
-                    row[j] = min(t0, dn2[j + 1] + _LONG, dn2[j - 1] + _LONG, dn1[j + 2] + _LONG,
-                                 dn1[j + 1] + _DIAG, dn1[j] + _HV, dn1[j - 1] + _DIAG,
-                                 dn1[j - 2] + _LONG, row[j + 1] + _HV)
+                r = row[j]
+                if r > _HV:
+                    r = min(min(r, cand[j]), nxt + _HV)
+                    row[j] = r
+                nxt = r
         total = 0.0
         for k in range(len(obs_r)):
             total += np.float32(tmp[obs_r[k] + 2, obs_c[k] + 2]) * np.float32(1.0 / 65536.0)
         return total
+
+    @njit(cache=True)
+    def _contour_flags(orient, fwd, bwd, flag):
+        """flag[e] = 1 where edge e's weight sum_k orient[fwd[e, k]] - orient[bwd[e, k]] is
+        not 0. orient is int32 so that the K == 1 loop vectorises (AVX2 gathers)."""
+        E, K = fwd.shape
+        if K == 1:
+            for e in range(E):
+                flag[e] = orient[fwd[e, 0]] != orient[bwd[e, 0]]
+        else:
+            for e in range(E):
+                w = 0
+                for k in range(K):
+                    w += orient[fwd[e, k]] - orient[bwd[e, k]]
+                flag[e] = w != 0
+
+    @njit(cache=True, fastmath={"reassoc"})
+    def _add_row(acc, r, run, dt, c, j0, j1):
+        """Next row r of the scan: run[j] += acc[r, j] (acc[r] cleared for the next
+        particle-view); returns the sum of dt[c, r] under the covered pixels (run != 0) and
+        their count (arrays and indices passed, not row views: building a view per row
+        cost more than the row). Only the float sum may be reassociated (vectorised): the energy then
+        differs from the in-order sum by float rounding, like the numpy path's BLAS dot."""
+        total = 0.0
+        count = 0
+        for j in range(j0, j1):
+            v = run[j] + acc[r, j]
+            run[j] = v
+            acc[r, j] = 0
+            total += np.float64(dt[c, r, j]) if v != 0 else 0.0
+            count += v != 0
+        return total, count
+
+    @njit(cache=True, fastmath={"reassoc"})
+    def _sum_row(run, dt, c, r, j0, j1):
+        """_add_row below the last crossing (run unchanged)."""
+        total = 0.0
+        count = 0
+        for j in range(j0, j1):
+            total += np.float64(dt[c, r, j]) if run[j] != 0 else 0.0
+            count += run[j] != 0
+        return total, count
+
+    @njit(cache=True)
+    def _seed_row(tmp, i, run, j0, j1, shift):
+        """Seeds of the model distance transform: tmp[i, j - shift] = 0 where the model
+        covers column j, far otherwise; returns how many."""
+        seeds = 0
+        for j in range(j0, j1):
+            inside = run[j] != 0
+            tmp[i, j - shift] = 0 if inside else _INIT
+            seeds += inside
+        return seeds
 
     @njit(cache=True, parallel=True)
     def _fused_energy(x, y, vis, faces, ea, eb, fwd, bwd, dt, boxes, valid, area, obs_r, obs_c,
                       obs_start, num_views, height, width, penalty, nthreads, out):
         """x, y: (N, V) pixel coordinates of N = P * C particle-views (view = n % C);
         vis: (N, V) bool vertex in front of the near plane; faces (F, 3); ea, eb (E,) edge
-        vertices; fwd, bwd (E, K) faces on either side (padded with F); dt (C, h, w) float32
+        vertices; fwd, bwd (E, K) faces on either side (both padded with F to one K); dt (C, h, w) float32
         observed distance transforms; boxes (C, 4) x0 y0 x1 y1; valid (C,); area (C,);
         obs_r, obs_c: observed pixels (box coordinates) of view c in
         obs_start[c]:obs_start[c + 1]. out: (N,) energies (NaN for invalid views)."""
         N = x.shape[0]
         F = faces.shape[0]
         E = ea.shape[0]
+        K = fwd.shape[1]
         bh_max = 1
         bw_max = 1
         for c in range(num_views):
             bh_max = max(bh_max, boxes[c, 3] - boxes[c, 1])
             bw_max = max(bw_max, boxes[c, 2] - boxes[c, 0])
         for t in prange(nthreads):
-            orient = np.zeros(F + 1, np.int8)
+            orient = np.zeros(F + 1, np.int32)
             acc = np.zeros((height + 1, width), np.int32)
             run = np.zeros(width, np.int32)
+            live = np.empty(E, np.int32)
+            flag = np.empty(E, np.uint8)
             tmp = np.empty((bh_max + 4, bw_max + 4), np.int32)
             for n in range(t, N, nthreads):
                 c = n % num_views
@@ -121,7 +195,7 @@ if HAVE_NUMBA:
                         y0 = ys[a]
                         lhs = (xs[faces[f, 1]] - x0) * (ys[faces[f, 2]] - y0)
                         rhs = (ys[faces[f, 1]] - y0) * (xs[faces[f, 2]] - x0)
-                        orient[f] = np.int8(lhs > rhs) - np.int8(lhs < rhs)
+                        orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
                 else:
                     for f in range(F):
                         a, b, d = faces[f, 0], faces[f, 1], faces[f, 2]
@@ -130,18 +204,25 @@ if HAVE_NUMBA:
                             continue
                         lhs = (xs[b] - xs[a]) * (ys[d] - ys[a])
                         rhs = (ys[b] - ys[a]) * (xs[d] - xs[a])
-                        orient[f] = np.int8(lhs > rhs) - np.int8(lhs < rhs)
+                        orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
                 orient[F] = 0
                 c_min = width
                 c_max = 0
                 r_min = height + 1
                 r_max = -1
+                # edges whose weight is not 0 (~10 %): flagged by a vectorised gather, then
+                # compacted without a branch (a branch per edge mispredicts on every contour
+                # edge), then scan-converted
+                _contour_flags(orient, fwd, bwd, flag)
+                n_live = 0
                 for e in range(E):
-                    w = np.int64(orient[fwd[e, 0]]) - np.int64(orient[bwd[e, 0]])
-                    for k in range(1, fwd.shape[1]):
-                        w += orient[fwd[e, k]]
-                    for k in range(1, bwd.shape[1]):
-                        w -= orient[bwd[e, k]]
+                    live[n_live] = e
+                    n_live += flag[e]
+                for i_live in range(n_live):
+                    e = live[i_live]
+                    w = np.int64(0)
+                    for k in range(K):
+                        w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
                     if w == 0:
                         continue
                     xa = xs[ea[e]]
@@ -180,8 +261,7 @@ if HAVE_NUMBA:
                     r = r_min
                     while r < height:
                         if r <= r_max:
-                            for j in range(c_min, c_max):
-                                run[j] += acc[r, j]
+                            s1, k1 = _add_row(acc, r, run, dt, c, c_min, c_max)
                         else:
                             # below the last crossing the column sums stay: stop when all are 0
                             busy = False
@@ -191,20 +271,14 @@ if HAVE_NUMBA:
                                     break
                             if not busy:
                                 break
-                        dtr = dt[c, r]
-                        for j in range(c_min, c_max):
-                            inside = run[j] != 0
-                            t1 += dtr[j] * inside
-                            model_area += inside
+                            s1, k1 = _sum_row(run, dt, c, r, c_min, c_max)
+                        t1 += s1
+                        model_area += k1
                         if y0 <= r < y1b:
-                            row = tmp[r - y0 + 2]
-                            for j in range(bx0, bx1):
-                                inside = run[j] != 0
-                                row[j - x0 + 2] = 0 if inside else _INIT
-                                seeds += inside
+                            seeds += _seed_row(tmp, r - y0 + 2, run, bx0, bx1, x0 - 2)
                         r += 1
-                    # clear the accumulation window for the next particle-view
-                    for rr in range(r_min, r_max + 1):
+                    # _add_row cleared the rows it read; clear a crossing on row ``height``
+                    for rr in range(max(r, r_min), r_max + 1):
                         for j in range(c_min, c_max):
                             acc[rr, j] = 0
                 e1 = t1 / model_area if model_area > 0 else penalty
@@ -228,10 +302,15 @@ class FusedSilhouetteEnergy:
         edges = get_rasterizer(faces, num_vertices).edges         # built once per topology
         # the narrowest index type: the kernel streams these arrays for every particle-view
         big = max(int(num_vertices), len(faces) + 1)
-        index = np.int16 if big < 2**15 else np.int32 if big < 2**31 else np.int64
+        # unsigned: numba then skips the negative-index wraparound on every gather
+        index = np.uint16 if big < 2**16 else np.uint32 if big < 2**32 else np.uint64
         self.faces = np.ascontiguousarray(faces, dtype=index)
+        # both face tables padded to the same width K (with F, the always-0 slot)
+        k = max(edges.forward.shape[1], edges.backward.shape[1])
+        sides = [np.pad(t, ((0, 0), (0, k - t.shape[1])), constant_values=len(faces))
+                 for t in (edges.forward, edges.backward)]
         self.edge_arrays = tuple(np.ascontiguousarray(a, dtype=index) for a in
-                                 (edges.a, edges.b, edges.forward, edges.backward))
+                                 (edges.a, edges.b, *sides))
         self.num_vertices = int(num_vertices)
         self._obs_key = None
 

@@ -101,3 +101,53 @@ def test_chamfer_energy_reference_is_unchanged_by_the_backend_switch(body):
     rig, sb, target, chi, numpy_energy = scene(body, particles=2)
     masks = numpy_energy.model_masks(sb.pose(chi).vertices)
     np.testing.assert_array_equal(chamfer_energy(masks, target), numpy_energy.per_view(chi, target))
+
+
+def _chamfer_one_loop(tmp, bh, bw):
+    """OpenCV's distanceTransform_5x5 as written there (one loop per pass, in place): the
+    reference for the split, vectorised passes of the kernel."""
+    HV, DIAG, LONG = fused._HV, fused._DIAG, fused._LONG
+    t = tmp.astype(np.int64)
+    for i in range(2, bh + 2):
+        for j in range(2, bw + 2):
+            if t[i, j] != 0:
+                t[i, j] = min(t[i - 2, j - 1] + LONG, t[i - 2, j + 1] + LONG, t[i - 1, j - 2] + LONG,
+                              t[i - 1, j - 1] + DIAG, t[i - 1, j] + HV, t[i - 1, j + 1] + DIAG,
+                              t[i - 1, j + 2] + LONG, t[i, j - 1] + HV)
+    for i in range(bh + 1, 1, -1):
+        for j in range(bw + 1, 1, -1):
+            if t[i, j] > HV:
+                t[i, j] = min(t[i, j], t[i + 2, j + 1] + LONG, t[i + 2, j - 1] + LONG,
+                              t[i + 1, j + 2] + LONG, t[i + 1, j + 1] + DIAG, t[i + 1, j] + HV,
+                              t[i + 1, j - 1] + DIAG, t[i + 1, j - 2] + LONG, t[i, j + 1] + HV)
+    return t
+
+
+def test_split_distance_transform_passes_equal_the_one_loop_algorithm_integer_for_integer():
+    rng = np.random.default_rng(7)
+    for density in (0.002, 0.02, 0.3):
+        bh, bw = rng.integers(3, 45, 2)
+        tmp = np.full((bh + 4, bw + 4), fused._INIT, np.int32)
+        tmp[2:-2, 2:-2][rng.random((bh, bw)) < density] = 0
+        tmp[2 + rng.integers(bh), 2 + rng.integers(bw)] = 0
+        want = _chamfer_one_loop(tmp, bh, bw)
+        got = tmp.copy()
+        obs_r, obs_c = np.nonzero(np.ones((bh, bw), bool))
+        total = fused._chamfer_term2(got, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64))
+        np.testing.assert_array_equal(got[2:-2, 2:-2], want[2:-2, 2:-2])
+        assert total == pytest.approx(want[2:-2, 2:-2].sum() / 65536.0, rel=1e-6)
+
+
+def test_fused_equals_the_numpy_path_on_a_mesh_with_non_manifold_edges(body):
+    """A duplicated face makes edges with two faces on one side (K = 2 in the edge table):
+    the general-K branch of the contour flags must give the numpy path's energies."""
+    from types import SimpleNamespace
+
+    rig, sb, target, chi, _ = scene(body)
+    faces = np.concatenate([body.faces, body.faces[:40]])
+    sb2 = SimpleNamespace(model=SimpleNamespace(faces=faces, num_vertices=body.num_vertices),
+                          pose=sb.pose)
+    a = SilhouetteEnergy(sb2, rig, scale=1.0, backend="numba")
+    b = SilhouetteEnergy(sb2, rig, scale=1.0, backend="numpy")
+    assert a.fused.edge_arrays[2].shape[1] == 2
+    np.testing.assert_allclose(a.per_view(chi, target), b.per_view(chi, target), rtol=1e-5, atol=1e-5)
