@@ -75,7 +75,7 @@ def test_fused_distance_transform_is_opencvs_5x5_chamfer():
         tmp = np.full((bh + 4, bw + 4), fused._INIT, np.int32)
         tmp[2:-2, 2:-2][seeds] = 0
         obs_r, obs_c = np.nonzero(rng.random((bh, bw)) < 0.3)
-        got = fused._chamfer_term2(tmp, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64))
+        got = fused._chamfer_term2(tmp, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64), 0, 0)
         dt = cv2.distanceTransform((~seeds).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5)
         # equal up to the rounding of the weights (fixed point here, float in IPP builds)
         assert got == pytest.approx(float(dt[obs_r, obs_c].astype(np.float64).sum()), rel=1e-5)
@@ -133,7 +133,7 @@ def test_split_distance_transform_passes_equal_the_one_loop_algorithm_integer_fo
         want = _chamfer_one_loop(tmp, bh, bw)
         got = tmp.copy()
         obs_r, obs_c = np.nonzero(np.ones((bh, bw), bool))
-        total = fused._chamfer_term2(got, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64))
+        total = fused._chamfer_term2(got, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64), 0, 0)
         np.testing.assert_array_equal(got[2:-2, 2:-2], want[2:-2, 2:-2])
         assert total == pytest.approx(want[2:-2, 2:-2].sum() / 65536.0, rel=1e-6)
 
