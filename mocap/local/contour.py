@@ -81,7 +81,14 @@ class ContourMatcher:
         # n . (x - c) for every view at once: (C, F)
         facing = (np.einsum("fc,fc->f", normals, centroids)[None] - centers @ normals.T) < 0
         f = self.edge_faces
-        return [np.unique(self.edge_vertices[fa[f[:, 0]] != fa[f[:, 1]]]) for fa in facing]
+        crossing = facing[:, f[:, 0]] != facing[:, f[:, 1]]                 # (C, E)
+        out = []
+        mark = np.zeros(len(verts), bool)
+        for sel in crossing:             # sorted unique ids, without np.unique's sort
+            mark[:] = False
+            mark[self.edge_vertices[sel]] = True
+            out.append(np.flatnonzero(mark))
+        return out
 
     def __call__(self, verts: np.ndarray, observed: ObservedContours) -> tuple[PointLines, dict]:
         """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
