@@ -35,6 +35,13 @@ import numpy as np
 from mocap.body.root_motion import interpolate_root, root_mean, root_spread
 from mocap.body.twists import se3_exp, se3_log, so3_exp
 
+try:                            # compiled bisection of the betas; numpy is the fallback
+    from numba import njit
+    HAVE_NUMBA = True
+except ImportError:             # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
+    njit = None
+    HAVE_NUMBA = False
+
 EnergyFn = Callable[[np.ndarray], np.ndarray]
 #: (particles (P, D), std (D,), limits (D, 2), rng, root_point (3,) or None) -> particles (P, D)
 Propagate = Callable[[np.ndarray, np.ndarray, np.ndarray, np.random.Generator, "np.ndarray | None"],
@@ -141,33 +148,96 @@ def annealing_weights(energy: np.ndarray, beta: float) -> np.ndarray:
     return w / w.sum()
 
 
-def find_betas(energies: np.ndarray, target: float, iterations: int = BETA_ITERATIONS) -> np.ndarray:
+def _find_betas_numpy(energies: np.ndarray, target: float, iterations: int = BETA_ITERATIONS) -> np.ndarray:
     """betas (G,) >= 0 for G energy sets (G, P) at once, each with survival rate = target
-    (bisection in log10 of the beta scaled by the energy spread).
+    (bisection in log10 of the beta scaled by the energy spread): the numpy reference of
+    :func:`find_betas`.
 
     The rate falls monotonically from 1 (beta = 0) to 1/m (m = number of minima); when all
     energies of a set are equal any beta gives 1, and 0 is returned.
     """
-    e = np.asarray(energies, np.float64)
-    e = e - e.min(axis=1, keepdims=True)
-    spread = e.max(axis=1)
-    if not np.all(np.isfinite(spread)):
-        raise FloatingPointError("energies must be finite")
-    flat = spread <= 1e-12
-    x = e / np.where(flat, 1.0, spread)[:, None]
-    P = e.shape[1]
+    x, spread, flat = _normalised(energies)
+    P = x.shape[1]
 
     def rate(log_beta):
         w = np.exp(-(10.0 ** log_beta)[:, None] * x)
         return w.sum(axis=1) ** 2 / (P * (w * w).sum(axis=1))
 
-    lo, hi = np.full(len(e), -12.0), np.full(len(e), 12.0)
+    lo, hi = np.full(len(x), -12.0), np.full(len(x), 12.0)
     saturated = rate(hi) > target
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
         above = rate(mid) > target
         lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
     beta = np.where(saturated, 10.0**12, 10.0 ** (0.5 * (lo + hi))) / np.where(flat, 1.0, spread)
+    return np.where(flat, 0.0, beta)
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _rate_nb(x, g, beta):
+        """Survival rate of row g of x at beta: (sum w)^2 / (P sum w^2), w = exp(-beta x)."""
+        s1 = 0.0
+        s2 = 0.0
+        for p in range(x.shape[1]):
+            w = np.exp(-beta * x[g, p])
+            s1 += w
+            s2 += w * w
+        return s1 * s1 / (x.shape[1] * s2)
+
+    @njit(cache=True)
+    def _bisect_nb(x, target, iterations, out):
+        """The bisection of :func:`_find_betas_numpy`, row by row: out[g] = beta (scaled) of
+        row g of x (G, P) (energies minus their minimum over their spread)."""
+        for g in range(x.shape[0]):
+            lo, hi = -12.0, 12.0
+            saturated = _rate_nb(x, g, 10.0**hi) > target
+            for _ in range(iterations):
+                mid = 0.5 * (lo + hi)
+                if _rate_nb(x, g, 10.0**mid) > target:
+                    lo = mid
+                else:
+                    hi = mid
+            out[g] = 10.0**12 if saturated else 10.0 ** (0.5 * (lo + hi))
+
+
+def _normalised(energies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x, spread, flat): energies (G, P) minus their row minimum, over their row spread."""
+    e = np.asarray(energies, np.float64)
+    e = e - e.min(axis=1, keepdims=True)
+    spread = e.max(axis=1)
+    if not np.all(np.isfinite(spread)):
+        raise FloatingPointError("energies must be finite")
+    flat = spread <= 1e-12
+    return e / np.where(flat, 1.0, spread)[:, None], spread, flat
+
+
+def find_betas(energies: np.ndarray, target: float, iterations: int = BETA_ITERATIONS,
+               compiled: bool | None = None) -> np.ndarray:
+    """betas (G,) >= 0 for G energy sets (G, P) at once, each with survival rate = target
+    (bisection in log10 of the beta scaled by the energy spread).
+
+    The rate falls monotonically from 1 (beta = 0) to 1/m (m = number of minima); when all
+    energies of a set are equal any beta gives 1, and 0 is returned.
+
+    With numba (``compiled`` None or True) the bisection runs compiled, a loop over the
+    sets with no temporaries: the same midpoints and comparisons as the numpy reference
+    :func:`_find_betas_numpy` (30 vectorised round trips, the cost at the trackers' sizes),
+    only the rate's exp and sums rounded differently (last bits); a comparison can then
+    differ only where the rate at a midpoint is within rounding of the target, i.e. where
+    the crossing is at that midpoint, so both betas are within the bisection's precision
+    (24 / 2^iterations decades) of it (tests/trackers/test_apf.py checks them within two
+    steps). ``compiled=False`` runs the numpy reference.
+    """
+    if compiled is None:
+        compiled = HAVE_NUMBA
+    if not compiled or not HAVE_NUMBA:
+        return _find_betas_numpy(energies, target, iterations)
+    x, spread, flat = _normalised(energies)
+    beta = np.empty(len(x))
+    _bisect_nb(x, float(target), int(iterations), beta)
+    beta = beta / np.where(flat, 1.0, spread)
     return np.where(flat, 0.0, beta)
 
 

@@ -29,6 +29,33 @@ def test_beta_search_hits_the_target_survival_rate():
     assert find_beta(np.ones(10), 0.5) == 0.0
 
 
+def test_compiled_beta_bisection_equals_the_numpy_reference():
+    """The compiled bisection (numba) visits the numpy reference's midpoints: same betas to
+    the bisection's precision (two steps of 24 / 2^30 decades; in practice bit for bit),
+    and each reaches the target survival rate."""
+    from mocap.trackers import anneal
+
+    if not anneal.HAVE_NUMBA:
+        pytest.skip("numba is not installed")
+    rng = np.random.default_rng(4)
+    step = 24.0 / 2**anneal.BETA_ITERATIONS
+    for trial in range(200):
+        G, P = rng.integers(1, 9), rng.integers(2, 250)
+        E = rng.gamma(rng.uniform(0.3, 3.0), 1.0, (G, P)) * 10.0 ** rng.uniform(-5, 5)
+        if trial % 5 == 0:
+            E[0] = 2.5                                   # a flat set: beta 0
+        target = rng.uniform(0.05, 0.95)
+        ref = anneal._find_betas_numpy(E, target)
+        fast = anneal.find_betas(E, target)
+        assert np.array_equal(ref == 0.0, fast == 0.0)
+        ok = ref > 0
+        assert np.all(np.abs(np.log10(fast[ok] / ref[ok])) <= 2 * step)
+        np.testing.assert_array_equal(anneal.find_betas(E, target, compiled=False), ref)
+        for g in np.flatnonzero(ok & (fast < 1e11)):
+            rate = survival_rate(np.exp(-fast[g] * (E[g] - E[g].min())))
+            assert rate == pytest.approx(target, abs=1e-6)
+
+
 def test_systematic_resampling_preserves_the_weighted_mean_in_expectation():
     rng = np.random.default_rng(1)
     x = rng.normal(size=(50, 3))
