@@ -11,14 +11,218 @@ These functions work on the rigid transforms instead:
 * :func:`root_spread`: per-axis spread of the posed root point (m) and of the rotations about
   their mean (rad), for the diffusion of the annealing;
 * :func:`interpolate_root`, :func:`predict_root`: geodesic interpolation and constant-velocity
-  extrapolation of the root.
+  extrapolation of the root;
+* :func:`perturb_root`: the root-local diffusion of the annealing (a rotation about the
+  posed root point and a translation, composed on the left).
+
+The per-particle maps (exp, log, the relative rotations of the spread, the perturbation)
+run compiled with numba, one loop over the particles that mirrors the numpy formulas of
+:mod:`mocap.body.twists` (same branches and series), where the numpy versions spend their
+time in the overhead of ~30 small array operations per call (the annealing calls them
+several times per layer). Results equal the numpy path to rounding (the last bits of sin,
+cos, arccos and of 3x3 products summed in another order; tests/body/test_root_motion.py);
+``compiled=False``, or numba missing, runs numpy.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mocap.body.twists import se3_exp, se3_log, so3_log
+from mocap.body.twists import se3_exp, se3_log, so3_exp, so3_log
+
+try:                            # compiled per-particle maps; numpy is the fallback
+    from numba import njit
+    HAVE_NUMBA = True
+except ImportError:             # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
+    njit = None
+    HAVE_NUMBA = False
+
+
+def _use_compiled(compiled: bool | None) -> bool:
+    return HAVE_NUMBA and (compiled is None or bool(compiled))
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _series_nb(theta):
+        """mocap.body.twists._series for one angle: a, b, c."""
+        t2 = theta * theta
+        if theta < 1e-4:
+            return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+        s = np.sin(theta)
+        return s / theta, (1.0 - np.cos(theta)) / (theta * theta), (theta - s) / (theta**3)
+
+    @njit(cache=True)
+    def _hat_nb(wx, wy, wz, K):
+        K[0, 0], K[0, 1], K[0, 2] = 0.0, -wz, wy
+        K[1, 0], K[1, 1], K[1, 2] = wz, 0.0, -wx
+        K[2, 0], K[2, 1], K[2, 2] = -wy, wx, 0.0
+
+    @njit(cache=True)
+    def _mul3_nb(A, B, out):
+        for i in range(3):
+            for j in range(3):
+                out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+
+    @njit(cache=True)
+    def _exp_nb(xi, R, t, K, K2):
+        """se3_exp of one twist (v, omega) into R (3, 3), t (3,) (K, K2: scratch 3x3)."""
+        wx, wy, wz = xi[3], xi[4], xi[5]
+        theta = np.sqrt(wx * wx + wy * wy + wz * wz)
+        a, b, c = _series_nb(theta)
+        _hat_nb(wx, wy, wz, K)
+        _mul3_nb(K, K, K2)
+        for i in range(3):
+            t[i] = 0.0
+        for i in range(3):
+            for j in range(3):
+                e = 1.0 if i == j else 0.0
+                R[i, j] = e + a * K[i, j] + b * K2[i, j]
+                t[i] += (e + b * K[i, j] + c * K2[i, j]) * xi[j]
+
+    @njit(cache=True)
+    def _so3_exp_nb(wx, wy, wz, R, K, K2):
+        """so3_exp of one rotation vector into R (3, 3)."""
+        theta = np.sqrt(wx * wx + wy * wy + wz * wz)
+        a, b, _ = _series_nb(theta)
+        _hat_nb(wx, wy, wz, K)
+        _mul3_nb(K, K, K2)
+        for i in range(3):
+            for j in range(3):
+                R[i, j] = (1.0 if i == j else 0.0) + a * K[i, j] + b * K2[i, j]
+
+    @njit(cache=True)
+    def _so3_log_nb(R, out):
+        """so3_log of one rotation matrix into out (3,) (angle in [0, pi], the axis from the
+        symmetric part near pi), as mocap.body.twists.so3_log."""
+        cos = min(max((R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0, -1.0), 1.0)
+        theta = np.arccos(cos)
+        sin = np.sin(theta)
+        near_pi = sin < 1e-6
+        if theta < 1e-6:
+            scale = 0.5
+        else:
+            scale = theta / (2.0 * (1.0 if near_pi else sin))
+        out[0] = (R[2, 1] - R[1, 2]) * scale
+        out[1] = (R[0, 2] - R[2, 0]) * scale
+        out[2] = (R[1, 0] - R[0, 1]) * scale
+        if near_pi and theta > 1.0:
+            col = 0
+            for k in range(1, 3):
+                if (R[k, k] + 1.0) / 2.0 > (R[col, col] + 1.0) / 2.0:
+                    col = k
+            n0 = (R[0, col] + (1.0 if col == 0 else 0.0)) / 2.0
+            n1 = (R[1, col] + (1.0 if col == 1 else 0.0)) / 2.0
+            n2 = (R[2, col] + (1.0 if col == 2 else 0.0)) / 2.0
+            norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            out[0], out[1], out[2] = n0 / norm * theta, n1 / norm * theta, n2 / norm * theta
+
+    @njit(cache=True)
+    def _log_nb(R, t, out, w, K, K2):
+        """se3_log of one rigid motion (R (3, 3), t (3,)) into out (6,) (w: scratch (3,))."""
+        _so3_log_nb(R, w)
+        theta = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        if theta < 1e-4:
+            coef = 1.0 / 12.0
+        else:
+            coef = (1.0 - theta * np.sin(theta) / (2.0 * (1.0 - np.cos(theta)))) / (theta * theta)
+        _hat_nb(w[0], w[1], w[2], K)
+        _mul3_nb(K, K, K2)
+        for i in range(3):
+            s = 0.0
+            for j in range(3):
+                s += ((1.0 if i == j else 0.0) - 0.5 * K[i, j] + coef * K2[i, j]) * t[j]
+            out[i] = s
+            out[3 + i] = w[i]
+
+    @njit(cache=True)
+    def _frames_nb(xi, root, R, p):
+        """Rotations R (P, 3, 3) and posed root points p (P, 3) of twists xi (P, 6)."""
+        K = np.empty((3, 3))
+        K2 = np.empty((3, 3))
+        t = np.empty(3)
+        for n in range(xi.shape[0]):
+            _exp_nb(xi[n], R[n], t, K, K2)
+            for i in range(3):
+                p[n, i] = R[n, i, 0] * root[0] + R[n, i, 1] * root[1] + R[n, i, 2] * root[2] + t[i]
+
+    @njit(cache=True)
+    def _spread_nb(Rm, R, p, out):
+        """out (6,): the std of the posed root points p (P, 3) (numpy's two-pass std) and the
+        root mean square of so3_log(Rm^T R_n) per axis, R (P, 3, 3)."""
+        P = R.shape[0]
+        rel = np.empty((3, 3))
+        w = np.empty(3)
+        for i in range(6):
+            out[i] = 0.0
+        for i in range(3):
+            m = 0.0
+            for n in range(P):
+                m += p[n, i]
+            m /= P
+            for n in range(P):
+                d = p[n, i] - m
+                out[i] += d * d
+            out[i] = np.sqrt(out[i] / P)
+        for n in range(P):
+            for i in range(3):
+                for j in range(3):
+                    rel[i, j] = Rm[0, i] * R[n, 0, j] + Rm[1, i] * R[n, 1, j] + Rm[2, i] * R[n, 2, j]
+            _so3_log_nb(rel, w)
+            for i in range(3):
+                out[3 + i] += w[i] * w[i]
+        for i in range(3):
+            out[3 + i] = np.sqrt(out[3 + i] / P)
+
+    @njit(cache=True)
+    def _step_nb(start, end, step, Rs, ts):
+        """T_start = exp(start) into (Rs, ts) and step = log(T_end T_start^-1) (6,)."""
+        K, K2 = np.empty((3, 3)), np.empty((3, 3))
+        Re, te, w = np.empty((3, 3)), np.empty(3), np.empty(3)
+        M, Mt = np.empty((3, 3)), np.empty(3)
+        _exp_nb(start, Rs, ts, K, K2)
+        _exp_nb(end, Re, te, K, K2)
+        for i in range(3):                       # T_end T_start^-1 = [Re Rs^T, te - Re Rs^T ts]
+            for j in range(3):
+                M[i, j] = Re[i, 0] * Rs[j, 0] + Re[i, 1] * Rs[j, 1] + Re[i, 2] * Rs[j, 2]
+        for i in range(3):
+            Mt[i] = te[i] - (M[i, 0] * ts[0] + M[i, 1] * ts[1] + M[i, 2] * ts[2])
+        _log_nb(M, Mt, step, w, K, K2)
+
+    @njit(cache=True)
+    def _perturb_root_nb(xi, noise, root, out):
+        """log(Delta_n exp(xi_n)) (P, 6): Delta_n rotates by noise[n, 3:] about the posed root
+        point and translates by noise[n, :3] (see :func:`perturb_root`)."""
+        R, dR, M = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+        K, K2 = np.empty((3, 3)), np.empty((3, 3))
+        t, p, Mt, w = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+        for n in range(xi.shape[0]):
+            _exp_nb(xi[n], R, t, K, K2)
+            for i in range(3):
+                p[i] = R[i, 0] * root[0] + R[i, 1] * root[1] + R[i, 2] * root[2] + t[i]
+            _so3_exp_nb(noise[n, 3], noise[n, 4], noise[n, 5], dR, K, K2)
+            _mul3_nb(dR, R, M)
+            for i in range(3):
+                # delta t = p - dR p + noise_v; M t = dR t + delta t
+                dp = dR[i, 0] * p[0] + dR[i, 1] * p[1] + dR[i, 2] * p[2]
+                Mt[i] = dR[i, 0] * t[0] + dR[i, 1] * t[1] + dR[i, 2] * t[2] + (p[i] - dp + noise[n, i])
+            _log_nb(M, Mt, out[n], w, K, K2)
+
+    @njit(cache=True)
+    def _interpolate_nb(step, Rs, ts, u, out):
+        """log(exp(u_n step) T_start) (N, 6), T_start = (Rs, ts)."""
+        E, M = np.empty((3, 3)), np.empty((3, 3))
+        K, K2 = np.empty((3, 3)), np.empty((3, 3))
+        t, Mt, w, xi = np.empty(3), np.empty(3), np.empty(3), np.empty(6)
+        for n in range(u.shape[0]):
+            for i in range(6):
+                xi[i] = u[n] * step[i]
+            _exp_nb(xi, E, t, K, K2)
+            _mul3_nb(E, Rs, M)
+            for i in range(3):
+                Mt[i] = E[i, 0] * ts[0] + E[i, 1] * ts[1] + E[i, 2] * ts[2] + t[i]
+            _log_nb(M, Mt, out[n], w, K, K2)
 
 
 def _transforms(xi: np.ndarray) -> np.ndarray:
@@ -45,25 +249,74 @@ def root_mean(xi: np.ndarray, weights: np.ndarray, root_point: np.ndarray) -> np
     return se3_log(out[None])[0]
 
 
-def root_spread(xi: np.ndarray, root_point: np.ndarray) -> np.ndarray:
-    """(6,) std of the posed root point (m, 3) and of the rotations about their (unweighted)
-    mean, as rotation vectors R_mean^T R_i (rad, 3)."""
+def root_frames(xi: np.ndarray, root_point: np.ndarray,
+                compiled: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations R (P, 3, 3) and posed root points R root_point + t (P, 3) of twists xi (P, 6)."""
+    xi = np.atleast_2d(np.asarray(xi, np.float64))
+    if _use_compiled(compiled):
+        R, p = np.empty((len(xi), 3, 3)), np.empty((len(xi), 3))
+        _frames_nb(np.ascontiguousarray(xi), np.ascontiguousarray(root_point, np.float64), R, p)
+        return R, p
     T = _transforms(xi)
     R, t = T[:, :3, :3], T[:, :3, 3]
-    p = R @ root_point + t
+    return R, R @ root_point + t
+
+
+def root_spread(xi: np.ndarray, root_point: np.ndarray, compiled: bool | None = None) -> np.ndarray:
+    """(6,) std of the posed root point (m, 3) and of the rotations about their (unweighted)
+    mean, as rotation vectors R_mean^T R_i (rad, 3)."""
+    R, p = root_frames(xi, root_point, compiled)
+    if _use_compiled(compiled):
+        U, _, Vt = np.linalg.svd(R.mean(axis=0))
+        Rm = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+        out = np.empty(6)
+        _spread_nb(Rm, R, p, out)
+        return out
     Rm = _mean_rotation(R, np.full(len(R), 1.0 / len(R)))
     rel = so3_log(np.einsum("ji,pjk->pik", Rm, R))
     return np.concatenate([p.std(axis=0), np.sqrt((rel**2).mean(axis=0))])
 
 
-def interpolate_root(start: np.ndarray, end: np.ndarray, u: np.ndarray) -> np.ndarray:
+def perturb_root(xi: np.ndarray, noise: np.ndarray, root_point: np.ndarray,
+                 compiled: bool | None = None) -> np.ndarray:
+    """Twists (P, 6) of Delta_i exp(xi_i): Delta_i rotates by the rotation vector
+    noise[i, 3:6] about the posed root point p_i = R_i root_point + t_i and translates by
+    noise[i, :3] (the root-local diffusion of :func:`mocap.trackers.anneal.perturb`)."""
+    xi = np.atleast_2d(np.asarray(xi, np.float64))
+    noise = np.asarray(noise, np.float64)
+    if _use_compiled(compiled):
+        out = np.empty((len(xi), 6))
+        _perturb_root_nb(np.ascontiguousarray(xi), np.ascontiguousarray(noise),
+                         np.ascontiguousarray(root_point, np.float64), out)
+        return out
+    P = len(xi)
+    T = se3_exp(xi)
+    p = (T[:, :3, :3] @ root_point) + T[:, :3, 3]
+    dR = so3_exp(noise[:, 3:6])
+    delta = np.zeros((P, 4, 4))
+    delta[:, :3, :3] = dR
+    delta[:, :3, 3] = p - (dR @ p[..., None])[..., 0] + noise[:, :3]
+    delta[:, 3, 3] = 1.0
+    return se3_log(delta @ T)
+
+
+def interpolate_root(start: np.ndarray, end: np.ndarray, u: np.ndarray,
+                     compiled: bool | None = None) -> np.ndarray:
     """Twists (N, 6) on the geodesic exp(u log(T_end T_start^-1)) T_start for u (N,)."""
+    u = np.atleast_1d(np.asarray(u, np.float64))
+    if _use_compiled(compiled):
+        step, Rs, ts, out = np.empty(6), np.empty((3, 3)), np.empty(3), np.empty((len(u), 6))
+        _step_nb(np.asarray(start, np.float64).reshape(6), np.asarray(end, np.float64).reshape(6),
+                 step, Rs, ts)
+        _interpolate_nb(step, Rs, ts, u, out)
+        return out
     Ts, Te = _transforms(start)[0], _transforms(end)[0]
     step = se3_log((Te @ np.linalg.inv(Ts))[None])[0]
-    return se3_log(se3_exp(np.asarray(u, np.float64)[:, None] * step) @ Ts)
+    return se3_log(se3_exp(u[:, None] * step) @ Ts)
 
 
-def predict_root(previous: np.ndarray, last: np.ndarray, damping: float) -> np.ndarray:
+def predict_root(previous: np.ndarray, last: np.ndarray, damping: float,
+                 compiled: bool | None = None) -> np.ndarray:
     """Constant-velocity prediction on SE(3): the last motion T_last T_prev^-1, scaled by
     ``damping``, applied once more to the last pose -> twist (6,)."""
-    return interpolate_root(previous, last, np.array([1.0 + damping]))[0]
+    return interpolate_root(previous, last, np.array([1.0 + damping]), compiled)[0]

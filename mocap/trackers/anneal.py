@@ -32,8 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mocap.body.root_motion import interpolate_root, root_mean, root_spread
-from mocap.body.twists import se3_exp, se3_log, so3_exp
+from mocap.body.root_motion import interpolate_root, perturb_root, root_mean, root_spread
 
 try:                            # compiled bisection of the betas; numpy is the fallback
     from numba import njit
@@ -278,14 +277,7 @@ def perturb(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rng: np.random.G
     noise = rng.normal(size=(P, D)) * std
     out = x + noise
     if root_point is not None and np.any(std[:6]):
-        T = se3_exp(x[:, :6])
-        p = (T[:, :3, :3] @ root_point) + T[:, :3, 3]
-        dR = so3_exp(noise[:, 3:6])
-        delta = np.zeros((P, 4, 4))
-        delta[:, :3, :3] = dR
-        delta[:, :3, 3] = p - (dR @ p[..., None])[..., 0] + noise[:, :3]
-        delta[:, 3, 3] = 1.0
-        out[:, :6] = se3_log(delta @ T)
+        out[:, :6] = perturb_root(x[:, :6], noise[:, :6], root_point)
     return reflect_into(out, limits)
 
 
