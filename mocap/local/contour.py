@@ -22,20 +22,21 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
 
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project
+from mocap.local.nearest import NearestPoints
 from mocap.local.solver import PointLines
 from mocap.render import get_rasterizer
 
 
 @dataclass(frozen=True)
 class ObservedContours:
-    """Per view: contour points (M, 2) in camera pixels and their KD-tree (None: no contour)."""
+    """Per view: contour points (M, 2) in camera pixels and their nearest-point index (None:
+    no contour)."""
 
     points: list[np.ndarray]
-    trees: list[cKDTree | None]
+    trees: list[NearestPoints | None]
 
 
 def observed_contours(masks: np.ndarray) -> ObservedContours:
@@ -46,7 +47,7 @@ def observed_contours(masks: np.ndarray) -> ObservedContours:
         p = (np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64) if contours
              else np.zeros((0, 2)))
         pts.append(p)
-        trees.append(cKDTree(p) if len(p) else None)
+        trees.append(NearestPoints(p) if len(p) else None)
     return ObservedContours(pts, trees)
 
 
@@ -127,7 +128,7 @@ class ContourMatcher:
             # that observed outline no model part explains still pulls the model
             dist, idx = tree.query(p)
             obs_pts = observed.points[c][:: self.observed_stride]
-            back_dist, back_idx = cKDTree(p).query(obs_pts)
+            back_dist, back_idx = NearestPoints(p).query(obs_pts)
             vid = np.concatenate([vid, vid[back_idx]])
             q = np.concatenate([observed.points[c][idx], obs_pts])
             dist = np.concatenate([dist, back_dist])

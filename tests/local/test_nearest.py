@@ -1,0 +1,66 @@
+"""The bucket-grid nearest-neighbour index of the contour matcher against scipy's k-d tree."""
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from mocap.energy import fallback
+from mocap.local import nearest
+from mocap.local.nearest import NearestPoints
+
+
+def _outline(rng, n):
+    """Integer pixels along a few ellipses (like silhouette outlines), with repeats."""
+    t = rng.uniform(0, 2 * np.pi, n)
+    k = rng.integers(0, 3, n)
+    cx, cy = np.array([300, 420, 350]), np.array([200, 500, 800])
+    a, b = np.array([80, 40, 150]), np.array([60, 200, 90])
+    return np.round(np.stack([cx[k] + a[k] * np.cos(t), cy[k] + b[k] * np.sin(t)], 1))
+
+
+@pytest.mark.parametrize("case", ["outline", "uniform", "one point", "duplicates", "line"])
+def test_equals_the_kd_tree(case):
+    rng = np.random.default_rng(3)
+    pts = {"outline": np.unique(_outline(rng, 2500), axis=0),
+           "uniform": rng.uniform(-50, 900, (700, 2)),
+           "one point": np.array([[10.0, 20.0]]),
+           "duplicates": np.repeat(rng.uniform(0, 100, (20, 2)).round(), 5, axis=0) + 0.0,
+           "line": np.stack([np.arange(300.0), np.full(300, 7.0)], 1)}[case]
+    # queries inside, near and far outside the points' box, on the points themselves
+    near = pts[:50] + rng.normal(0, 0.3, (min(50, len(pts)), 2))
+    q = np.concatenate([rng.uniform(-300, 1300, (3000, 2)), near, pts[:20]])
+    index = NearestPoints(pts)
+    d, i = index.query(q)
+    dk, ik = cKDTree(pts).query(q)
+    assert index._tree is not None          # the far queries went to the k-d tree
+    np.testing.assert_allclose(d, dk, rtol=1e-12, atol=1e-9)
+    # the same point, or (ties, duplicates) another at the same distance
+    same = (i == ik) | np.isclose(np.linalg.norm(pts[i] - q, axis=1), dk, rtol=1e-12, atol=1e-9)
+    assert same.all()
+    if case in ("outline", "uniform"):          # distinct points: no ties, the same index
+        np.testing.assert_array_equal(i, ik)
+
+
+def test_small_cells_and_bad_input():
+    rng = np.random.default_rng(0)
+    pts = rng.uniform(0, 50, (200, 2))
+    q = rng.uniform(-20, 70, (500, 2))
+    for cell, rings in ((0.5, 4), (3.0, 1), (3.0, 1000), (200.0, 4)):   # far queries: k-d tree
+        d, _ = NearestPoints(pts, cell=cell, max_ring=rings).query(q)
+        np.testing.assert_allclose(d, cKDTree(pts).query(q)[0], rtol=1e-12)
+    with pytest.raises(ValueError, match="non-empty"):
+        NearestPoints(np.zeros((0, 2)))
+    with pytest.raises(ValueError, match="finite"):
+        NearestPoints(pts).query(np.array([[np.nan, 1.0]]))
+
+
+def test_without_numba_the_kd_tree_answers_and_says_so_once(monkeypatch):
+    monkeypatch.setattr(nearest, "HAVE_NUMBA", False)
+    monkeypatch.setattr(fallback, "WARNED", set())
+    pts = np.random.default_rng(1).uniform(0, 10, (30, 2))
+    with pytest.warns(RuntimeWarning, match="k-d tree"):
+        a = NearestPoints(pts)
+    b = NearestPoints(pts)
+    assert not a.compiled and not b.compiled
+    q = np.array([[1.0, 2.0], [20.0, -3.0]])
+    np.testing.assert_array_equal(a.query(q)[1], cKDTree(pts).query(q)[1])
