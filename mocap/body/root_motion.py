@@ -176,6 +176,25 @@ if HAVE_NUMBA:
             out[3 + i] = np.sqrt(out[3 + i] / P)
 
     @njit(cache=True)
+    def _root_spread_nb(xi, root, out):
+        """:func:`root_spread` in one compiled call: frames, chordal mean rotation (SVD
+        projection of the mean of the R_n, summed in numpy's order), spreads."""
+        P = xi.shape[0]
+        R, p = np.empty((P, 3, 3)), np.empty((P, 3))
+        _frames_nb(xi, root, R, p)
+        M = np.zeros((3, 3))
+        for n in range(P):
+            for i in range(3):
+                for j in range(3):
+                    M[i, j] += R[n, i, j]
+        M /= P
+        U, _, Vt = np.linalg.svd(M)
+        d = np.linalg.det(U @ Vt)
+        for i in range(3):
+            U[i, 2] *= d
+        _spread_nb(U @ Vt, R, p, out)
+
+    @njit(cache=True)
     def _step_nb(start, end, step, Rs, ts):
         """T_start = exp(start) into (Rs, ts) and step = log(T_end T_start^-1) (6,)."""
         K, K2 = np.empty((3, 3)), np.empty((3, 3))
@@ -265,13 +284,12 @@ def root_frames(xi: np.ndarray, root_point: np.ndarray,
 def root_spread(xi: np.ndarray, root_point: np.ndarray, compiled: bool | None = None) -> np.ndarray:
     """(6,) std of the posed root point (m, 3) and of the rotations about their (unweighted)
     mean, as rotation vectors R_mean^T R_i (rad, 3)."""
-    R, p = root_frames(xi, root_point, compiled)
     if _use_compiled(compiled):
-        U, _, Vt = np.linalg.svd(R.mean(axis=0))
-        Rm = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
         out = np.empty(6)
-        _spread_nb(Rm, R, p, out)
+        _root_spread_nb(np.ascontiguousarray(np.atleast_2d(xi), np.float64),
+                        np.ascontiguousarray(root_point, np.float64), out)
         return out
+    R, p = root_frames(xi, root_point, compiled)
     Rm = _mean_rotation(R, np.full(len(R), 1.0 / len(R)))
     rel = so3_log(np.einsum("ji,pjk->pik", Rm, R))
     return np.concatenate([p.std(axis=0), np.sqrt((rel**2).mean(axis=0))])

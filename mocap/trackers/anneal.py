@@ -186,6 +186,27 @@ if HAVE_NUMBA:
         return s1 * s1 / (x.shape[1] * s2)
 
     @njit(cache=True)
+    def _column_std_nb(x, out):
+        """numpy's x.std(axis=0) of a C-ordered (P, D >= 2) array, in its order of
+        summation (rows added one after another; D = 1 would be summed pairwise): the same
+        bits."""
+        P, D = x.shape
+        for d in range(D):
+            out[d] = 0.0
+        for p in range(P):
+            for d in range(D):
+                out[d] += x[p, d]
+        for d in range(D):
+            out[d] /= P
+        var = np.zeros(D)
+        for p in range(P):
+            for d in range(D):
+                e = x[p, d] - out[d]
+                var[d] += e * e
+        for d in range(D):
+            out[d] = np.sqrt(var[d] / P)
+
+    @njit(cache=True)
     def _bisect_nb(x, target, iterations, out):
         """The bisection of :func:`_find_betas_numpy`, row by row: out[g] = beta (scaled) of
         row g of x (G, P) (energies minus their minimum over their spread)."""
@@ -284,7 +305,11 @@ def perturb(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rng: np.random.G
 def particle_spread(x: np.ndarray, root_point: np.ndarray | None) -> np.ndarray:
     """Per-DOF std of particles (D,), the global part measured on SE(3) if a root point is
     given (rotation vectors wrap at pi: see :mod:`mocap.body.root_motion`)."""
-    std = x.std(axis=0)
+    if HAVE_NUMBA and x.ndim == 2 and x.dtype == np.float64 and x.shape[1] >= 2:
+        std = np.empty(x.shape[1])
+        _column_std_nb(np.ascontiguousarray(x), std)
+    else:
+        std = x.std(axis=0)
     if root_point is not None:
         std[:6] = root_spread(x[:, :6], root_point)
     return std

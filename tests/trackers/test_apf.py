@@ -56,6 +56,21 @@ def test_compiled_beta_bisection_equals_the_numpy_reference():
             assert rate == pytest.approx(target, abs=1e-6)
 
 
+def test_particle_spread_is_numpys_std_bit_for_bit_and_the_root_spread_on_se3():
+    from mocap.body.root_motion import root_spread
+    from mocap.trackers.anneal import particle_spread
+
+    rng = np.random.default_rng(5)
+    for P, D in ((100, 22), (2, 2), (257, 31), (50, 1)):
+        x = rng.normal(size=(P, D)) * 10.0 ** rng.uniform(-3, 3, D)
+        np.testing.assert_array_equal(particle_spread(x, None), x.std(axis=0))
+    x = rng.normal(0.0, 0.2, (100, 22))
+    root = np.array([0.0, 0.1, 0.9])
+    std = particle_spread(x, root)
+    np.testing.assert_array_equal(std[6:], x[:, 6:].std(axis=0))
+    np.testing.assert_allclose(std[:6], root_spread(x[:, :6], root, compiled=False), atol=1e-14)
+
+
 def test_systematic_resampling_preserves_the_weighted_mean_in_expectation():
     rng = np.random.default_rng(1)
     x = rng.normal(size=(50, 3))
