@@ -24,15 +24,17 @@ def truncated_normal(mean: np.ndarray, std: np.ndarray, lo: np.ndarray, hi: np.n
     mean must lie inside [lo, hi] (then the CDF interval contains 0.5 and the inverse CDF
     is accurate); std == 0 returns mean; infinite bounds are allowed.
     """
-    mean, std = np.broadcast_arrays(np.asarray(mean, np.float64), np.asarray(std, np.float64))
-    lo = np.broadcast_to(np.asarray(lo, np.float64), mean.shape)
-    hi = np.broadcast_to(np.asarray(hi, np.float64), mean.shape)
-    safe = np.where(std > 0, std, 1.0)
+    mean, std = np.asarray(mean, np.float64), np.asarray(std, np.float64)
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    shape = np.broadcast_shapes(mean.shape, std.shape)
+    moving = std > 0
+    still = not moving.all()                 # usually every std > 0: no masking, same values
+    safe = np.where(moving, std, 1.0) if still else std
     with np.errstate(invalid="ignore"):
         a, b = ndtr((lo - mean) / safe), ndtr((hi - mean) / safe)
-    u = a + rng.random(mean.shape) * (b - a)
-    x = mean + safe * ndtri(np.clip(u, 1e-300, 1.0 - 1e-16))
-    return np.where(std > 0, np.clip(x, lo, hi), mean)
+    u = a + rng.random(shape) * (b - a)
+    x = np.clip(mean + safe * ndtri(np.clip(u, 1e-300, 1.0 - 1e-16)), lo, hi)
+    return np.where(moving, x, mean) if still else x
 
 
 def gibbs_truncated_normal(mean: np.ndarray, cov: np.ndarray, lo: np.ndarray, hi: np.ndarray,
