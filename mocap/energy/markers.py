@@ -135,7 +135,7 @@ def pinhole_project(rig: Rig, points: np.ndarray) -> tuple[np.ndarray, np.ndarra
     pixels (..., L, C, 2) and depth (..., L, C) metres."""
     points = np.asarray(points)
     dtype = np.result_type(points.dtype, np.float32)
-    R, t, K = rig.R.astype(dtype), rig.t.astype(dtype), rig.K.astype(dtype)
+    R, t, K = (np.asarray(a, dtype) for a in (rig.R, rig.t, rig.K))       # no copy when float64
     X = np.einsum("cij,...lj->...lci", R, points) + t
     z = X[..., 2]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -275,6 +275,7 @@ class MarkerEnergy:
         self.compiled = (settings.compiled if compiled is None else compiled) and compiled_available()
         tables = EpipolarTables.build(obs, rig, self.F)
         L, C, K, _ = obs.xy.shape
+        rest = self._rest_points(landmarks, shaped, rest_offsets)          # once (float64)
         if self.compiled:
             self.tables = tables
             self.obs_cast = obs
@@ -288,12 +289,12 @@ class MarkerEnergy:
                         np.ascontiguousarray(shaped.axes, np.float64),
                         np.ascontiguousarray(shaped.rest_joints, np.float64),
                         np.asarray(landmarks.joint, np.int64),
-                        np.ascontiguousarray(self._rest_points(landmarks, shaped, rest_offsets), np.float64))
+                        np.ascontiguousarray(rest, np.float64))
         else:
             dtype = landmarks.model.dtype                   # float32 bodies: float32 costs
             self.tables = tables.astype(dtype)
             self.obs_cast = MarkerObservation(obs.xy.astype(dtype), obs.valid, obs.confidence)
-        self.rest = self._rest_points(landmarks, shaped, rest_offsets).astype(landmarks.model.dtype)
+        self.rest = rest.astype(landmarks.model.dtype)
         L = len(landmarks)
         self.predicted = predicted
         self.weak = np.zeros(L, bool) if weak is None or predicted is None else np.asarray(weak, bool)

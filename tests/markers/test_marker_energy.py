@@ -117,3 +117,30 @@ def test_coherence_pulls_weak_landmarks_towards_their_prediction(body, rig):
     assert coh == pytest.approx(30**2 * 0.25 / (len(lms) * 4), rel=1e-4)   # (5 cm / 10 cm)^2
     e0 = MarkerEnergy(lms, shaped, rig, obs, s, predicted=X, weak=weak)
     assert e0.terms(chi)["coherence"][0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_projection_and_rest_points_equal_the_camera_model_and_the_landmark_set(body, rig):
+    """pinhole_project is the camera's undistorted projection K (R X + t) (rig arrays used
+    in place, not copied: the rig is unchanged), and MarkerEnergy's rest points (computed
+    once for both paths) are the landmark set's, plus offsets when given."""
+    lms = LandmarkSet(body)
+    shaped = body.shaped(np.zeros(body.num_shape))
+    X = lms.positions(shaped, probe_poses(body, 3) * 0.3).astype(np.float64)      # (3, L, 3)
+    R0 = rig.R.copy()
+    u, depth = pinhole_project(rig, X)
+    expected = np.moveaxis(project(rig, X.reshape(-1, 3)), 0, 1).reshape(3, -1, len(rig), 2)
+    np.testing.assert_allclose(u, expected, atol=1e-9)
+    cam = np.einsum("cij,plj->plci", rig.R, X) + rig.t
+    np.testing.assert_allclose(depth, cam[..., 2], atol=1e-12)
+    np.testing.assert_array_equal(rig.R, R0)
+    det = detections_of(rig, X[0], lms.names, np.random.default_rng(0))
+    obs = arrange_detections(det, lms.names, rig)
+    offsets = np.random.default_rng(1).normal(0.0, 0.01, (len(lms), 3))
+    for compiled in (True, False):
+        for off in (None, offsets):
+            e = MarkerEnergy(lms, shaped, rig, obs, MarkerLikelihood(gate_px=30), compiled=compiled,
+                             rest_offsets=off)
+            want = lms.rest_points(shaped).astype(np.float64) + (0.0 if off is None else off)
+            np.testing.assert_allclose(e.rest, want.astype(body.dtype), rtol=1e-6)
+            if e.compiled:
+                np.testing.assert_array_equal(e._fk[-1], want)

@@ -125,3 +125,24 @@ def test_truncated_normal_equals_the_masked_reference_bit_for_bit():
         assert got.shape == want.shape
         np.testing.assert_array_equal(got, want)
         assert np.all((got >= lo) & (got <= hi))
+
+
+def test_propagation_equals_perturb_then_truncated_normal_bit_for_bit(body):
+    """The root part is exactly perturb(x, root std)[:, :6] (same normals drawn for all D
+    columns), the joint angles the truncated Gaussian drawn after them, with or without a
+    root point and with a still root."""
+    from mocap.trackers.apf import perturb
+
+    rng = np.random.default_rng(8)
+    x = np.clip(rng.normal(0.0, 0.3, (120, body.num_dofs)), body.limits[:, 0], body.limits[:, 1])
+    point = np.array([0.0, 0.1, 0.9])
+    for root, root_on in ((point, True), (None, True), (point, False)):
+        std = rng.uniform(0.01, 0.3, body.num_dofs)
+        if not root_on:
+            std[:6] = 0.0
+        got = propagate_truncated(x, std, body.limits, np.random.default_rng(9), root)
+        ref_rng = np.random.default_rng(9)
+        root_std = np.where(np.arange(body.num_dofs) < 6, std, 0.0)
+        want = perturb(x, root_std, body.limits, ref_rng, root) if root_on else x.copy()
+        want[:, 6:] = truncated_normal(x[:, 6:], std[6:], body.limits[6:, 0], body.limits[6:, 1], ref_rng)
+        np.testing.assert_array_equal(got, want)

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from mocap.trackers.apf import perturb
+from mocap.body.root_motion import perturb_root
+from mocap.trackers.anneal import reflect_into
 
 
 def truncated_normal(mean: np.ndarray, std: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -73,6 +74,15 @@ def propagate_truncated(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rng:
     """
     std = np.asarray(std, np.float64)
     root_std = np.where(np.arange(len(std)) < 6, std, 0.0)
-    out = perturb(x, root_std, limits, rng, root_point) if np.any(root_std) else np.array(x, np.float64)
+    out = np.array(x, np.float64)
+    if np.any(root_std):
+        # perturb(x, root_std, ...)[:, :6], without its work on the columns overwritten below:
+        # the same normals drawn (all D columns: the generator's stream is unchanged)
+        noise = rng.normal(size=x.shape) * root_std
+        if root_point is not None:
+            out[:, :6] = perturb_root(out[:, :6], noise[:, :6], root_point)
+        else:
+            out[:, :6] += noise[:, :6]
+        out[:, :6] = reflect_into(out[:, :6], limits[:6])
     out[:, 6:] = truncated_normal(x[:, 6:], std[6:], limits[6:, 0], limits[6:, 1], rng)
     return out
