@@ -195,6 +195,31 @@ if HAVE_NUMBA:
         _spread_nb(U @ Vt, R, p, out)
 
     @njit(cache=True)
+    def _root_mean_nb(xi, weights, root, out):
+        """:func:`root_mean` in one compiled call: SVD projection of sum w_n R_n, weighted
+        mean of the posed root points, log of the mean pose into out (6,)."""
+        P = xi.shape[0]
+        R, p = np.empty((P, 3, 3)), np.empty((P, 3))
+        _frames_nb(xi, root, R, p)
+        M = np.zeros((3, 3))
+        pm = np.zeros(3)
+        for n in range(P):
+            for i in range(3):
+                pm[i] += weights[n] * p[n, i]
+                for j in range(3):
+                    M[i, j] += weights[n] * R[n, i, j]
+        U, _, Vt = np.linalg.svd(M)
+        d = np.linalg.det(U @ Vt)
+        for i in range(3):
+            U[i, 2] *= d
+        Rm = U @ Vt
+        t = np.empty(3)
+        for i in range(3):
+            t[i] = pm[i] - (Rm[i, 0] * root[0] + Rm[i, 1] * root[1] + Rm[i, 2] * root[2])
+        K, K2, w = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
+        _log_nb(Rm, t, out, w, K, K2)
+
+    @njit(cache=True)
     def _step_nb(start, end, step, Rs, ts):
         """T_start = exp(start) into (Rs, ts) and step = log(T_end T_start^-1) (6,)."""
         K, K2 = np.empty((3, 3)), np.empty((3, 3))
@@ -254,11 +279,18 @@ def _mean_rotation(R: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
 
 
-def root_mean(xi: np.ndarray, weights: np.ndarray, root_point: np.ndarray) -> np.ndarray:
+def root_mean(xi: np.ndarray, weights: np.ndarray, root_point: np.ndarray,
+              compiled: bool | None = None) -> np.ndarray:
     """Weighted mean of twists xi (P, 6) with weights (P,) summing to 1 -> (6,).
 
     The rotation is the SO(3) projection of sum w_i R_i, the root point (3,) (rest
     position of the root joint) is moved to the weighted mean of its posed positions."""
+    if _use_compiled(compiled):
+        out = np.empty(6)
+        _root_mean_nb(np.ascontiguousarray(np.atleast_2d(xi), np.float64),
+                      np.ascontiguousarray(weights, np.float64),
+                      np.ascontiguousarray(root_point, np.float64), out)
+        return out
     T = _transforms(xi)
     R, t = T[:, :3, :3], T[:, :3, 3]
     Rm = _mean_rotation(R, weights)

@@ -116,3 +116,27 @@ def test_interpolation_ends_at_the_start_and_the_end():
         np.testing.assert_allclose(se3_exp(mid), half @ Ta, atol=1e-12)
     np.testing.assert_allclose(rm.predict_root(a, b, 1.0, compiled=True),
                                rm.predict_root(a, b, 1.0, compiled=False), atol=1e-12)
+
+
+def test_root_mean_compiled_equals_numpy_and_known_means():
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        xi = rng.normal(0.0, 0.3, (100, 6))
+        xi[:, 3:] += rng.normal(0.0, 1.0, 3)
+        w = rng.random(100) ** 3
+        w /= w.sum()
+        np.testing.assert_allclose(rm.root_mean(xi, w, ROOT, compiled=True),
+                                   rm.root_mean(xi, w, ROOT, compiled=False), atol=1e-10)
+    one = twists(rng, 1)[0] * 0.5
+    for compiled in (True, False):
+        # identical particles: their own twist
+        np.testing.assert_allclose(rm.root_mean(np.tile(one, (7, 1)), np.full(7, 1 / 7), ROOT, compiled),
+                                   one, atol=1e-12)
+        # two rotations about z through the root point, equal weights: the half-way rotation
+        # (chordal mean of +-a about one axis is the identity), the root point stays put
+        a = 0.4
+        pair = np.zeros((2, 6))
+        pair[:, 5] = [a, -a]
+        pair[:, :3] = -np.cross(pair[:, 3:], ROOT)                    # rotation about the root point
+        mean = rm.root_mean(pair, np.array([0.5, 0.5]), ROOT, compiled)
+        np.testing.assert_allclose(mean, np.zeros(6), atol=1e-12)
