@@ -144,3 +144,27 @@ def test_projection_and_rest_points_equal_the_camera_model_and_the_landmark_set(
             np.testing.assert_allclose(e.rest, want.astype(body.dtype), rtol=1e-6)
             if e.compiled:
                 np.testing.assert_array_equal(e._fk[-1], want)
+
+
+def test_arranging_with_prebuilt_view_rigs_is_the_same_with_distortion(body):
+    """views=view_rigs(rig) undistorts each view as rig[c] does: identical arrays, on a rig
+    with lens distortion (the iterative inverse)."""
+    from dataclasses import replace as dc_replace
+
+    from mocap.cameras import Rig
+    from mocap.energy.markers import view_rigs
+
+    base = ring_rig(3, 3.5, 1.6, 640, 480, fov_deg=50, look_at=(0, 0, 0.9))
+    dist = np.array([-0.2, 0.05, 0.001, -0.002, 0.0])
+    rig = Rig(tuple(dc_replace(cam, dist=dist * (1 + 0.1 * i)) for i, cam in enumerate(base)))
+    lms = LandmarkSet(body)
+    truth = lms.positions(body.shaped(np.zeros(body.num_shape)), probe_poses(body, 1) * 0.3)[0]
+    det = detections_of(rig, truth.astype(np.float64), lms.names, np.random.default_rng(3), noise=1.0,
+                        extra=[(0, -1, 100.0, 80.0), (2, -1, 500.0, 400.0)])
+    a = arrange_detections(det, lms.names, rig)
+    b = arrange_detections(det, lms.names, rig, views=view_rigs(rig))
+    for x, y in zip((a.xy, a.valid, a.confidence), (b.xy, b.valid, b.confidence), strict=True):
+        np.testing.assert_array_equal(x, y)
+    raw = arrange_detections(det, lms.names, base)                     # the same pixels, no distortion
+    np.testing.assert_array_equal(raw.valid, a.valid)
+    assert np.abs(raw.xy[raw.valid] - a.xy[a.valid]).max() > 1.0         # distortion was removed

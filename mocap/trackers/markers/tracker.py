@@ -32,6 +32,7 @@ from mocap.energy.markers import (
     MarkerObservation,
     arrange_detections,
     reprojection_errors,
+    view_rigs,
     views_near,
 )
 from mocap.trackers.apf import APFSettings
@@ -98,6 +99,7 @@ class MarkerAPFTracker(AnnealedStep):
         self.crossover = crossover
         self.groups: list[PartGroup] = []
         self.pinhole = pinhole_rig(rig)
+        self._views = view_rigs(rig)                  # one-camera rigs, for arrange_detections
         self.F = fundamental_matrices(self.pinhole)
         self.landmarks: LandmarkSet | None = None
         self.shaped: ShapedBody | None = None
@@ -137,7 +139,8 @@ class MarkerAPFTracker(AnnealedStep):
 
     def observe(self, frame: Frame) -> MarkerObservation:
         lms = self._landmarks_for(frame)
-        return arrange_detections(frame.detections, lms.names, self.rig, self.min_confidence)
+        return arrange_detections(frame.detections, lms.names, self.rig, self.min_confidence,
+                                  views=self._views)
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         chi = np.asarray(chi, np.float64)
