@@ -11,11 +11,23 @@ baseline by ``threshold`` (the paper's absolute test when ``relative=False``).
 The check runs at ``resolution`` px on the images' longest side (an absolute size, so that a
 forearm covers the same few pixels whatever the cameras' resolution; ``scale`` relative to the
 cameras instead, if given).
+
+That test is one-sided: a limb the model has folded inside the torso's silhouette (a forearm
+turned the wrong way in front of the chest) has every vertex inside and is never flagged,
+while the observed arm beside the body goes unexplained. With ``unexplained`` > 0 the check
+also looks at the other side: observed pixels the model's own silhouette does not cover
+(the model mask grown by ``tolerance_px`` + 1, the leftover shrunk by one pixel so that the
+slivers of a differently shaped body vanish). Each limb chain (a joint with angles whose
+parent has none, with its unbranched subtree: an arm from the shoulder, a leg from the hip)
+is charged with the leftover pixels whose nearest projected chain vertex is its own (the
+trunk is not a candidate: a missing arm beside the body is nearest to the arm's remaining
+part). A chain charged with more than ``unexplained`` x the observed silhouette area (summed
+over views) is misaligned with all its limbs.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -23,15 +35,20 @@ import numpy as np
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig, project
 from mocap.energy.silhouette import downscale_masks
+from mocap.local.nearest import NearestPoints
+from mocap.render import get_rasterizer
 
 
 @dataclass(frozen=True)
 class LimbCheck:
-    """flagged: (J,) bool per joint's limb; names: flagged limbs; errors: limb -> error."""
+    """flagged: (J,) bool per joint's limb; names: flagged limbs; errors: limb -> error;
+    unexplained: chain root -> share of the observed area within its reach left unexplained
+    (empty when that side is not checked)."""
 
     flagged: np.ndarray
     names: list[str]
     errors: dict
+    unexplained: dict = field(default_factory=dict)
 
 
 def descendants(parents: np.ndarray, joint: int) -> list[int]:
@@ -43,10 +60,36 @@ def descendants(parents: np.ndarray, joint: int) -> list[int]:
     return out
 
 
+def limb_chains(body: BodyModel) -> list[tuple[int, list[int], float]]:
+    """(root joint, its limbs, reach in metres) of each limb chain: a joint with angles whose
+    parent has none (the root's global twist does not count), whose subtree does not branch;
+    reach: the largest rest-pose distance from the root joint to a vertex of the chain."""
+    has_dofs = np.zeros(body.num_joints, bool)
+    has_dofs[np.unique(body.dof_joint)] = True
+    has_vertices = np.zeros(body.num_joints, bool)
+    has_vertices[np.unique(body.part_labels)] = True
+    verts, joints = body.rest(np.zeros(body.num_shape))
+    verts, joints = np.asarray(verts, np.float64), np.asarray(joints, np.float64)
+    chains = []
+    for j in range(1, body.num_joints):
+        p = body.parents[j]
+        if not has_dofs[j] or (p > 0 and has_dofs[p]):
+            continue
+        sub = descendants(body.parents, j)
+        if any(np.count_nonzero(body.parents == k) > 1 for k in sub):
+            continue                                           # branches: the trunk, not a limb
+        limbs = [k for k in sub if has_vertices[k]]
+        if not limbs:
+            continue
+        v = verts[np.isin(body.part_labels, limbs)]
+        chains.append((j, limbs, float(np.linalg.norm(v - joints[j], axis=1).max())))
+    return chains
+
+
 class MisalignmentDetector:
     def __init__(self, body: BodyModel, rig: Rig, threshold: float = 0.15, resolution: int = 256,
                  tolerance_px: int = 1, scale: float | None = None, relative: bool = True,
-                 baseline_cap: float = 0.15):
+                 baseline_cap: float = 0.15, unexplained: float = 0.0):
         if scale is None:
             scale = min(1.0, resolution / float(np.max(rig.sizes)))
         self.body, self.threshold, self.scale = body, threshold, scale
@@ -55,6 +98,37 @@ class MisalignmentDetector:
         self.small = rig.scaled(scale)
         self.tolerance = tolerance_px
         self.limbs = [j for j in range(body.num_joints) if np.any(body.part_labels == j)]
+        if unexplained < 0:
+            raise ValueError(f"unexplained must be >= 0, got {unexplained}")
+        self.unexplained = float(unexplained)
+        self.chains = limb_chains(body) if unexplained > 0 else []
+        self._raster = get_rasterizer(body.faces, body.num_vertices) if unexplained > 0 else None
+        self._chain_vertex = np.full(body.num_vertices, -1)       # chain index of each vertex
+        for i, (_, limbs, _) in enumerate(self.chains):
+            self._chain_vertex[np.isin(body.part_labels, limbs)] = i
+
+    def unexplained_share(self, vertices: np.ndarray, masks: np.ndarray) -> dict[int, float]:
+        """Chain root -> observed pixels left unexplained by the model's silhouette whose
+        nearest projected chain vertex is the chain's, as a share of the observed silhouette
+        area (all views)."""
+        obs = downscale_masks(masks, self.scale)
+        C, h, w = obs.shape
+        px, depth = project(self.small, vertices, return_depth=True)
+        model = self._raster(px, h, w, depth, near=0.05)
+        grow = np.ones((2 * self.tolerance + 3,) * 2, np.uint8)
+        counts = np.zeros(len(self.chains))
+        for c in range(C):
+            left = obs[c] & ~(cv2.dilate(model[c].astype(np.uint8), grow) > 0)
+            left = cv2.erode(left.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+            ys, xs = np.nonzero(left)
+            front = self._chain_vertex >= 0
+            front &= depth[c] > 0.05
+            if len(xs) == 0 or not front.any():
+                continue
+            _, nearest = NearestPoints(px[c, front]).query(np.stack([xs, ys], 1).astype(np.float64))
+            counts += np.bincount(self._chain_vertex[front][nearest], minlength=len(self.chains))
+        area = max(int(obs.sum()), 1)
+        return {j: float(n / area) for (j, _, _), n in zip(self.chains, counts, strict=True)}
 
     def limb_errors(self, vertices: np.ndarray, masks: np.ndarray) -> np.ndarray:
         """(J,) share of each limb's vertices outside the observed silhouettes (NaN: no vertex)."""
@@ -77,7 +151,10 @@ class MisalignmentDetector:
             err[j] = outside[self.body.part_labels == j].mean()
         return err
 
-    def __call__(self, vertices: np.ndarray, masks: np.ndarray) -> LimbCheck:
+    def __call__(self, vertices: np.ndarray, masks: np.ndarray,
+                 joints: np.ndarray | None = None) -> LimbCheck:
+        """vertices (V, 3), masks (C, H, W); joints (J, 3): the posed joints, needed for the
+        unexplained-pixel side (skipped without them)."""
         err = self.limb_errors(vertices, masks)
         if self.relative and self.baseline is None:
             self.baseline = np.minimum(np.nan_to_num(err), self.baseline_cap)
@@ -85,8 +162,15 @@ class MisalignmentDetector:
         flagged = np.zeros(self.body.num_joints, bool)
         for j in np.flatnonzero(err - base > self.threshold):
             flagged[descendants(self.body.parents, int(j))] = True
+        share = {}
+        if self.chains and joints is not None:
+            share = self.unexplained_share(vertices, masks)
+            for (j, limbs, _) in self.chains:
+                if share[j] > self.unexplained:
+                    flagged[limbs] = True
         names = [self.body.joint_names[j] for j in np.flatnonzero(flagged)]
-        return LimbCheck(flagged, names, {self.body.joint_names[j]: float(err[j]) for j in self.limbs})
+        return LimbCheck(flagged, names, {self.body.joint_names[j]: float(err[j]) for j in self.limbs},
+                         {self.body.joint_names[j]: v for j, v in share.items()})
 
     def free_dofs(self, check: LimbCheck) -> np.ndarray:
         """(D,) bool: the DOFs a global search over the misaligned limbs varies: those of each

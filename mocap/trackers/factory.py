@@ -124,7 +124,7 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     loc = {k: v for k, v in dict(local or {}).items() if k not in ("_target_", "name", "keep_particles")}
     weights, pose_prior = _energy(body, a.pop("energy", None), a.pop("prior", None))
     scale = internal_scale(rig, a.pop("resolution", 256))
-    extra = {k: a.pop(k) for k in ("refine_iterations",) if k in a}
+    extra = {k: a.pop(k) for k in ("refine_iterations", "restart") if k in a}
     init_std = tuple(a.pop("init_std"))
     settings = _search(a)
     if a:

@@ -19,11 +19,34 @@ from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import EnergyWeights, FrameEnergy
-from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.anneal import anneal, perturb
+from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.local_tracker import LocalTracker
+
+
+class RestartFirstLayer:
+    """The APF's diffusion (:func:`~mocap.trackers.anneal.perturb`), except on its first call
+    (the first layer) a share ``fraction`` of the particles draw their free joint angles
+    uniformly within the joint limits: the limb being searched is known to be wrong, and a
+    Gaussian of a few degrees around it cannot reach a forearm folded the wrong way."""
+
+    def __init__(self, fraction: float, free: np.ndarray):
+        if not 0.0 <= fraction <= 1.0:
+            raise ValueError(f"restart fraction must be in [0, 1], got {fraction}")
+        self.fraction, self.free, self.first = float(fraction), np.asarray(free, bool), True
+
+    def __call__(self, x, std, limits, rng, root_point=None):
+        out = perturb(x, std, limits, rng, root_point)
+        if self.first:
+            self.first = False
+            k = int(round(self.fraction * len(out)))
+            cols = self.free & (np.arange(len(self.free)) >= 6) & np.all(np.isfinite(limits), axis=1)
+            if k and cols.any():
+                out[:k, cols] = rng.uniform(limits[cols, 0], limits[cols, 1], (k, int(cols.sum())))
+        return out
 
 
 class HybridTracker(LocalTracker):
@@ -31,11 +54,13 @@ class HybridTracker(LocalTracker):
                  weights: EnergyWeights, prior: PosePrior | None, scale: float,
                  init_std: tuple[float, float, float] = (0.03, 0.03, 0.25),
                  refine_iterations: int = 3, keep_particles: bool = False, name: str = "hybrid",
-                 **local: Mapping):
+                 restart: float = 0.0, **local: Mapping):
         super().__init__(body, rig, name=name, rng=rng, **local)
         self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
         self.scale, self.std0 = scale, diffusion_std(body, *init_std)
         self.refine_iterations, self.keep_particles = refine_iterations, keep_particles
+        self.restart = float(restart)
+        RestartFirstLayer(self.restart, np.zeros(body.num_dofs, bool))     # checks the range
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         super().initialize(chi, alpha)
@@ -48,8 +73,9 @@ class HybridTracker(LocalTracker):
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, local = self.local_step(frame, predicted)
         t1 = time.perf_counter()
-        verts = self.shaped.pose(chi).vertices[0]
-        check = self.detector(verts, frame.masks)
+        posed = self.shaped.pose(chi)
+        verts = posed.vertices[0]
+        check = self.detector(verts, frame.masks, posed.joints[0])
         t2 = time.perf_counter()
         decision = Misalignment(tuple(check.names), dict(check.errors), apf_called=bool(check.names))
         report = StepDiagnostics(local=local, misalignment=decision)
@@ -59,9 +85,10 @@ class HybridTracker(LocalTracker):
             target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
             energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior)
             chi_local = chi
-            chi_apf, apf = run_apf(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
-                                   keep_particles=self.keep_particles, free=free,
-                                   root_point=self.shaped.rest_joints[0])
+            chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
+                                  propagate=RestartFirstLayer(self.restart, free), free=free,
+                                  keep_particles=self.keep_particles,
+                                  root_point=self.shaped.rest_joints[0])
             t3 = time.perf_counter()
             refine_iters, self.iterations = self.iterations, self.refine_iterations
             try:
