@@ -116,12 +116,12 @@ def main() -> None:
     energy, _ = trk.frame_energy(frame_of(seq, len(res.estimates) - 1), predicted)
     x = predicted + np.random.default_rng(0).normal(0, 0.02, (P, body.num_dofs))
     X = energy.points(x)
-    u, depth = pinhole_project(energy.rig, X)
+    u, depth = pinhole_project(energy.rig, X, compiled=False)
     front = depth > 0.05
     gate = energy.settings.gate_px
     total = timeit(lambda: energy.landmark_costs(x), 50)
     fk = timeit(lambda: energy.points(x), 50)
-    proj = timeit(lambda: pinhole_project(energy.rig, X), 50)
+    proj = timeit(lambda: pinhole_project(energy.rig, X, compiled=False), 50)
     ref = MarkerEnergy(energy.landmarks, energy.shaped, energy.rig, energy.obs, energy.settings,
                        F=energy.F, compiled=False)
     costs = timeit(lambda: view_costs(u, front, ref.obs_cast, ref.tables, gate), 50)

@@ -130,6 +130,54 @@ def landmark_points(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest_p
     return out
 
 
+@njit(cache=True, error_model="numpy")
+def project_points(X, R, t, Kc, u, z):
+    """Undistorted projection of landmarks X: (N, L, 3) world into pixels u (N, L, C, 2) and
+    depths z (N, L, C), with the arithmetic of :func:`view_costs_fused` (and of
+    :func:`mocap.energy.markers.pinhole_project` to rounding); a zero depth gives inf / nan
+    as numpy does."""
+    N, L, C = X.shape[0], X.shape[1], R.shape[0]
+    for n in range(N):
+        for lm in range(L):
+            x0, x1, x2 = X[n, lm, 0], X[n, lm, 1], X[n, lm, 2]
+            for c in range(C):
+                cx = R[c, 0, 0] * x0 + R[c, 0, 1] * x1 + R[c, 0, 2] * x2 + t[c, 0]
+                cy = R[c, 1, 0] * x0 + R[c, 1, 1] * x1 + R[c, 1, 2] * x2 + t[c, 1]
+                cz = R[c, 2, 0] * x0 + R[c, 2, 1] * x1 + R[c, 2, 2] * x2 + t[c, 2]
+                xn, yn = cx / cz, cy / cz
+                u[n, lm, c, 0] = Kc[c, 0, 0] * xn + Kc[c, 0, 1] * yn + Kc[c, 0, 2]
+                u[n, lm, c, 1] = Kc[c, 1, 1] * yn + Kc[c, 1, 2]
+                z[n, lm, c] = cz
+
+
+@njit(cache=True)
+def nearest_candidates(u, front, obs_xy, valid, confidence, gate2, z, conf, ok):
+    """Per landmark and view the valid candidate nearest to the projection u (L, C, 2)
+    (squared distance dx^2 + dy^2, the first of equals, a NaN distance first as numpy's
+    argmin takes it; candidate 0 when none is valid): its pixels z (L, C, 2), confidence
+    conf (L, C), and ok (L, C) = nearer than sqrt(gate2) and front (L, C). The loop of
+    :func:`mocap.trackers.markers.refine.associate`, same values."""
+    L, C, K = valid.shape
+    for lm in range(L):
+        for c in range(C):
+            best, kb, nan = np.inf, 0, False
+            for k in range(K):
+                if not valid[lm, c, k]:
+                    continue
+                dx = obs_xy[lm, c, k, 0] - u[lm, c, 0]
+                dy = obs_xy[lm, c, k, 1] - u[lm, c, 1]
+                d2 = dx * dx + dy * dy
+                if np.isnan(d2):
+                    if not nan:
+                        best, kb, nan = d2, k, True
+                elif not nan and d2 < best:
+                    best, kb = d2, k
+            z[lm, c, 0] = obs_xy[lm, c, kb, 0]
+            z[lm, c, 1] = obs_xy[lm, c, kb, 1]
+            conf[lm, c] = confidence[lm, c, kb]
+            ok[lm, c] = (best < gate2) and front[lm, c]
+
+
 @njit(cache=True)
 def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, weight):
     """Per-view costs (P, L, C) and kept (P, L, C) of :func:`mocap.energy.markers.view_costs`

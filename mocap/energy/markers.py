@@ -48,10 +48,10 @@ from mocap.data.sequence import Detections
 from mocap.energy.fallback import warn_once
 
 try:                                    # the compiled kernels need numba; numpy is the fallback
-    from mocap.energy.marker_kernel import landmark_points, view_costs_fused
+    from mocap.energy.marker_kernel import landmark_points, project_points, view_costs_fused
     HAVE_NUMBA = True
 except ImportError:                     # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
-    landmark_points = view_costs_fused = None
+    landmark_points = project_points = view_costs_fused = None
     HAVE_NUMBA = False
 
 
@@ -142,10 +142,25 @@ def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
     return MarkerObservation(out_xy, valid, out_conf)
 
 
-def pinhole_project(rig: Rig, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def pinhole_project(rig: Rig, points: np.ndarray,
+                    compiled: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Undistorted projection of points (..., L, 3) world metres into all views:
-    pixels (..., L, C, 2) and depth (..., L, C) metres."""
+    pixels (..., L, C, 2) and depth (..., L, C) metres.
+
+    float64 points are projected by the compiled kernel when numba is there (``compiled``
+    None or True; :func:`mocap.energy.marker_kernel.project_points`, the compiled
+    likelihood's own projection, equal to this numpy one to rounding); ``compiled=False``
+    and other dtypes run numpy."""
     points = np.asarray(points)
+    if (compiled is None or compiled) and HAVE_NUMBA and points.dtype == np.float64 and points.ndim >= 2:
+        lead = points.shape[:-2]
+        X = np.ascontiguousarray(points.reshape((-1,) + points.shape[-2:]))
+        C = len(rig)
+        u = np.empty(X.shape[:2] + (C, 2))
+        z = np.empty(X.shape[:2] + (C,))
+        project_points(X, np.ascontiguousarray(rig.R, np.float64), np.ascontiguousarray(rig.t, np.float64),
+                       np.ascontiguousarray(rig.K, np.float64), u, z)
+        return u.reshape(lead + u.shape[1:]), z.reshape(lead + z.shape[1:])
     dtype = np.result_type(points.dtype, np.float32)
     R, t, K = (np.asarray(a, dtype) for a in (rig.R, rig.t, rig.K))       # no copy when float64
     X = np.einsum("cij,...lj->...lci", R, points) + t
@@ -340,7 +355,7 @@ class MarkerEnergy:
                                        self.obs.valid, self._lines, self.tables.epipoles,
                                        float(s.gate_px) ** 2, float(s.near), self._weight)
         else:
-            u, depth = pinhole_project(self.rig, X)
+            u, depth = pinhole_project(self.rig, X, compiled=False)
             cost, _ = view_costs(u, depth > s.near, self.obs_cast, self.tables, s.gate_px,
                                  s.use_confidence)
         P, L, C = cost.shape

@@ -168,3 +168,20 @@ def test_arranging_with_prebuilt_view_rigs_is_the_same_with_distortion(body):
     raw = arrange_detections(det, lms.names, base)                     # the same pixels, no distortion
     np.testing.assert_array_equal(raw.valid, a.valid)
     assert np.abs(raw.xy[raw.valid] - a.xy[a.valid]).max() > 1.0         # distortion was removed
+
+
+def test_compiled_projection_equals_numpy_and_handles_points_on_the_camera_plane(body, rig):
+    rng = np.random.default_rng(4)
+    X = rng.normal(0.0, 1.0, (7, 5, 21, 3)) + [0.0, 0.0, 0.9]
+    u1, z1 = pinhole_project(rig, X)
+    u0, z0 = pinhole_project(rig, X, compiled=False)
+    assert u1.shape == u0.shape == (7, 5, 21, len(rig), 2) and z1.shape == z0.shape
+    np.testing.assert_allclose(z1, z0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(u1, u0, rtol=1e-9, atol=1e-9)
+    # a point on the camera plane (depth exactly 0): inf / nan as numpy gives, no exception
+    from mocap.energy.marker_kernel import project_points
+
+    u, z = np.empty((1, 2, 1, 2)), np.empty((1, 2, 1))
+    K = np.array([[[500.0, 0.0, 320.0], [0.0, 500.0, 240.0], [0.0, 0.0, 1.0]]])
+    project_points(np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]]), np.eye(3)[None], np.zeros((1, 3)), K, u, z)
+    assert np.all(z == 0.0) and not np.isfinite(u).any()

@@ -21,7 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.cameras import Rig
-from mocap.energy.markers import MarkerObservation, pinhole_project
+from mocap.energy.markers import HAVE_NUMBA, MarkerObservation, pinhole_project
+
+if HAVE_NUMBA:
+    from mocap.energy.marker_kernel import nearest_candidates
 
 
 @dataclass(frozen=True)
@@ -40,9 +43,18 @@ class Refinement:
 
 
 def associate(u: np.ndarray, front: np.ndarray, obs: MarkerObservation,
-              gate_px: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              gate_px: float, compiled: bool | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nearest candidate within the gate per landmark and view. u: (L, C, 2) projections,
-    front: (L, C). Returns z (L, C, 2), confidence (L, C), ok (L, C) bool."""
+    front: (L, C). Returns z (L, C, 2), confidence (L, C), ok (L, C) bool. With numba
+    (``compiled`` None or True) one compiled loop
+    (:func:`mocap.energy.marker_kernel.nearest_candidates`), the same values."""
+    if (compiled is None or compiled) and HAVE_NUMBA:
+        L, C = front.shape
+        z, conf, ok = np.empty((L, C, 2)), np.empty((L, C)), np.empty((L, C), bool)
+        nearest_candidates(np.ascontiguousarray(u, np.float64), np.ascontiguousarray(front, bool),
+                           np.ascontiguousarray(obs.xy, np.float64), np.ascontiguousarray(obs.valid, bool),
+                           np.ascontiguousarray(obs.confidence, np.float64), float(gate_px) ** 2, z, conf, ok)
+        return z, conf, ok
     d2 = ((obs.xy - u[:, :, None, :]) ** 2).sum(axis=-1)
     d2 = np.where(obs.valid, d2, np.inf)
     k = np.argmin(d2, axis=2)
