@@ -75,3 +75,92 @@ def test_a_wrong_arm_is_flagged_and_searched_alone(body, seq):
     free = [body.dof_index(d) for d in m.free_dofs]
     held = np.setdiff1d(np.arange(body.num_dofs), free)
     np.testing.assert_allclose(e.chi[held], start[held], atol=1e-12)   # no local iterations
+
+
+@pytest.fixture(scope="module")
+def seq6(body):
+    rig = ring_rig(6, 3.5, 1.5, 400, 400, fov_deg=45, look_at=(0, 0, 0.9))
+    return make_synthetic(body, rig, motion="walk", frames=2, fps=25, seed=0, images=False)
+
+
+def test_a_forearm_folded_inside_the_body_needs_both_sides_of_the_check_and_a_wide_search(body, seq6):
+    """The left forearm folded the wrong way in front of the body (elbow flexion and shoulder
+    rotation at their limits; the truth hangs almost straight): every vertex projects inside
+    the observed silhouette, so the one-sided check (the paper's) flags nothing. Charging the
+    unexplained observed pixels to the nearest limb chain flags exactly the left arm; a
+    Gaussian first layer around the folded arm does not get back (wrist error stays above half
+    its start in most seeds), uniform restarts within the limits do (below a quarter)."""
+    start = seq6.gt.chi[1].copy()
+    for name in ("l_elbow_flex", "l_shoulder_rot"):
+        k = body.dof_index(name)
+        start[k] = body.limits[k, 1] - 0.05
+    shaped = body.shaped(seq6.gt.alpha)
+    wrist = body.joint_names.index("l_wrist")
+
+    def wrist_mm(chi):
+        return 1e3 * np.linalg.norm(shaped.pose(chi[None]).joints[0, wrist] - seq6.gt.joints[1, wrist])
+
+    def run(unexplained, restart, seed):
+        h = make_tracker("hybrid", body=body, rig=seq6.rig, rng=np.random.default_rng(seed),
+                         local={"iterations": 0, "misalignment": {"threshold": 0.15,
+                                                                  "unexplained": unexplained}},
+                         apf={"particles": 25, "layers": 8, "refine_iterations": 0, "restart": restart})
+        h.initialize(start, seq6.gt.alpha)
+        return h.step(frame_of(seq6, 1))
+
+    assert wrist_mm(start) > 300
+    assert run(0.0, 0.5, 0).diagnostics.misalignment.limbs == ()          # one-sided: unseen
+    narrow, wide = [], []
+    for seed in range(4):
+        for restart, errs in ((0.0, narrow), (0.5, wide)):
+            e = run(0.005, restart, seed)
+            assert set(e.diagnostics.misalignment.limbs) == {"l_shoulder", "l_elbow", "l_wrist"}
+            errs.append(wrist_mm(e.chi))
+    start_err = wrist_mm(start)
+    assert sum(x > 0.5 * start_err for x in narrow) >= 3, narrow
+    assert sum(x < 0.25 * start_err for x in wide) >= 3, wide
+
+
+def test_detector_charges_unexplained_pixels_to_the_nearest_chain_only(body, seq6):
+    """On the true pose nothing is left over beyond mismatch-free noise; with the left arm
+    folded, the leftover goes to the left arm's chain, not to the legs."""
+    from mocap.local.misalignment import MisalignmentDetector, limb_chains
+
+    assert [body.joint_names[j] for j, _, _ in limb_chains(body)] == ["l_shoulder", "r_shoulder",
+                                                                    "l_hip", "r_hip"]
+    det = MisalignmentDetector(body, seq6.rig, unexplained=0.005)
+    shaped = body.shaped(seq6.gt.alpha)
+    truth = shaped.pose(seq6.gt.chi[1][None])
+    ok = det(truth.vertices[0], seq6.masks[1], truth.joints[0])
+    assert ok.names == [] and max(ok.unexplained.values()) < 0.001
+    folded = seq6.gt.chi[1].copy()
+    for name in ("l_elbow_flex", "l_shoulder_rot"):
+        k = body.dof_index(name)
+        folded[k] = body.limits[k, 1] - 0.05
+    out = shaped.pose(folded[None])
+    share = det(out.vertices[0], seq6.masks[1], out.joints[0]).unexplained
+    assert share["l_shoulder"] > 0.005 > max(share["r_shoulder"], share["l_hip"], share["r_hip"])
+    with pytest.raises(ValueError, match="unexplained"):
+        MisalignmentDetector(body, seq6.rig, unexplained=-0.1)
+
+
+def test_restart_first_layer_draws_free_joint_angles_uniformly_once():
+    from mocap.trackers.anneal import perturb
+    from mocap.trackers.hybrid_tracker import RestartFirstLayer
+
+    D, P = 9, 400
+    limits = np.tile([-1.0, 1.0], (D, 1))
+    free = np.zeros(D, bool)
+    free[[0, 7, 8]] = True                       # a root DOF (never restarted) and two angles
+    x = np.zeros((P, D))
+    std = np.full(D, 1e-3)
+    prop = RestartFirstLayer(0.25, free)
+    first = prop(x, std, limits, np.random.default_rng(0))
+    k = P // 4
+    assert np.all(np.abs(first[k:]) < 0.01) and np.all(np.abs(first[:k, :7]) < 0.01)
+    drawn = first[:k, 7:]
+    assert drawn.std() > 0.5 and np.all(np.abs(drawn) <= 1.0)          # uniform on [-1, 1]: 0.58
+    np.testing.assert_allclose(prop(x, std, limits, np.random.default_rng(1)),
+                               perturb(x, std, limits, np.random.default_rng(1)))
+    with pytest.raises(ValueError, match="restart"):
+        RestartFirstLayer(1.5, free)
