@@ -96,3 +96,28 @@ def test_frames_without_detections_fail_with_a_clear_message(body, rig, clean):
     trk.initialize(clean.gt.chi[0], clean.gt.alpha)
     with pytest.raises(ValueError, match="needs 2D detections"):
         trk.step(Frame(index=1, masks=np.zeros((4, 480, 640), bool)))
+
+
+def test_numpy_fallbacks_track_as_the_compiled_annealing_does(body, rig, clean, monkeypatch):
+    """The compiled annealing pieces (betas, spreads, root maps, association) and their numpy
+    fallbacks (numba missing) give the same estimates over several frames, to rounding: the
+    same algorithm, not merely a similar one."""
+    from mocap.body import root_motion
+    from mocap.trackers import anneal
+    from mocap.trackers.markers import refine
+
+    if not anneal.HAVE_NUMBA:
+        pytest.skip("numba is not installed")
+
+    def run():
+        trk = tracker(body, rig)
+        trk.initialize(clean.gt.chi[0], clean.gt.alpha)
+        return np.array([trk.step(frame_of(clean, t)).chi for t in range(1, 7)])
+
+    compiled = run()
+    for module in (anneal, root_motion, refine):
+        monkeypatch.setattr(module, "HAVE_NUMBA", False)
+    fallback = run()
+    # rounding differences (1e-16) grow through the refinement's finite-difference Jacobian
+    # (step 1e-4) to ~1e-8; a different resampling or bisection would differ by ~1e-3
+    np.testing.assert_allclose(fallback, compiled, rtol=0, atol=1e-7)
