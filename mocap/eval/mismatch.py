@@ -126,7 +126,7 @@ def _scores(est: np.ndarray, m: _Matched) -> dict:
     return {"raw_mm": raw_mm, "offset_removed_mm": _mean_of_frames(removed),
             "limbs_mm": _mean_of_frames(raw[:, limbs]) if limbs else float("nan"),
             "limbs_offset_removed_mm": _mean_of_frames(removed[:, limbs]) if limbs else float("nan"),
-            "frames_lost": int(np.sum(per_frame > LOST_MM)),
+            "frames_lost": int(np.sum(per_frame[1:] > LOST_MM)),        # after frame 0
             "offsets_mm": {n: float(1e3 * np.linalg.norm(offsets[k])) for k, n in enumerate(m.scored)}}
 
 
@@ -134,8 +134,9 @@ def mismatch_metrics(estimate: Mapping[str, np.ndarray], gt_names: Sequence[str]
                      valid: np.ndarray | None = None, skeleton: str | None = None) -> dict:
     """Raw, offset-removed and limb-only errors of an estimate (name -> (F, 3) metres,
     mocap names) against ground truth by name. Keys (mm): ``raw_mm``, ``offset_removed_mm``,
-    ``limbs_mm``, ``limbs_offset_removed_mm``, ``frames_lost`` (raw per-frame error above
-    :data:`LOST_MM`), ``offsets_mm`` (per ground-truth name, the removed offset's length)."""
+    ``limbs_mm``, ``limbs_offset_removed_mm``, ``frames_lost`` (frames after the first, the
+    initialisation, whose raw error is above :data:`LOST_MM`: the count ``run_metrics`` reports
+    at the top level too), ``offsets_mm`` (per ground-truth name, the removed offset's length)."""
     m = _match(gt_names, gt_joints, valid, list(estimate), skeleton)
     F = m.gt.shape[0]
     est = np.stack([np.asarray(estimate[n], np.float64)[:F] for n in m.ours], axis=1)

@@ -77,6 +77,9 @@ def test_lost_frames_are_counted():
     est[3] += [0.2, 0, 0]                                     # 200 mm on every joint in frame 3
     m = mismatch_metrics({n: est[:, i] for i, n in enumerate(names)}, names, gt)
     assert m["frames_lost"] == 1
+    est[0] += [0.3, 0, 0]               # a wrong initialisation is not a lost frame (as run_metrics)
+    m = mismatch_metrics({n: est[:, i] for i, n in enumerate(names)}, names, gt)
+    assert m["frames_lost"] == 1
 
 
 @pytest.mark.slow
