@@ -110,18 +110,26 @@ def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, n
     return LocalTracker(body, rig, name=name, rng=rng, **options)
 
 
-#: the hybrid's APF: ``apf_prior`` (25 x 10 with the pose prior), with a wide first layer
-HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 1.0}, "init_std": (0.03, 0.03, 0.25)}
+#: the hybrid's APF: ``apf_prior`` (25 x 10 with the pose prior), with a wide first layer of
+#: which half is drawn uniformly within the limits of the searched angles (``restart``)
+HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 1.0}, "init_std": (0.03, 0.03, 0.25),
+              "restart": 0.5}
+#: the hybrid's misalignment check also charges unexplained observed pixels to the nearest limb
+#: chain (:class:`mocap.local.misalignment.MisalignmentDetector`); ``unexplained: 0`` turns
+#: that side off (the paper's one-sided check)
+HYBRID_MISALIGNMENT = {"unexplained": 0.005}
 
 
 def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "hybrid",
                         keep_particles: bool = False, apf: Mapping | None = None,
                         local: Mapping | None = None, initialization: Mapping | None = None) -> HybridTracker:
     """The hybrid tracker: ``local`` holds :class:`LocalTracker`'s options, ``apf`` those of
-    its APF (as for :func:`make_apf_tracker`, plus refine_iterations; default
-    :data:`HYBRID_APF`). ``_target_`` and ``name`` keys of composed configs are ignored."""
+    its APF (as for :func:`make_apf_tracker`, plus refine_iterations and restart; default
+    :data:`HYBRID_APF`); the local tracker's misalignment check defaults to
+    :data:`HYBRID_MISALIGNMENT`. ``_target_`` and ``name`` keys of composed configs are ignored."""
     a = merge(HYBRID_APF, {k: v for k, v in dict(apf or {}).items() if k not in ("_target_", "name")})
     loc = {k: v for k, v in dict(local or {}).items() if k not in ("_target_", "name", "keep_particles")}
+    loc["misalignment"] = merge(HYBRID_MISALIGNMENT, dict(loc.get("misalignment") or {}))
     weights, pose_prior = _energy(body, a.pop("energy", None), a.pop("prior", None))
     scale = internal_scale(rig, a.pop("resolution", 256))
     extra = {k: a.pop(k) for k in ("refine_iterations", "restart") if k in a}

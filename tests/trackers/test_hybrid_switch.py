@@ -19,9 +19,10 @@ def seq(body):
     return make_synthetic(body, rig, motion="walk", frames=3, fps=25, seed=0, images=False)
 
 
-def hybrid(body, seq, threshold, seed=0):
+def hybrid(body, seq, threshold, seed=0, unexplained=0.0):
     return make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(seed),
-                        local={**LOCAL, "misalignment": {"threshold": threshold}}, apf=APF)
+                        local={**LOCAL, "misalignment": {"threshold": threshold,
+                                                         "unexplained": unexplained}}, apf=APF)
 
 
 def test_switch_never_fires_above_every_limb_error_and_then_hybrid_is_local(body, seq):
