@@ -65,5 +65,5 @@ def test_apf_prior_composes_apf_and_hybrid_composes_local_and_apf_prior():
         moved = compose("track", overrides=["tracker=hybrid", "tracker.local.iterations=4"]).tracker
     assert prior._target_ == apf._target_ and (prior.particles, prior.layers) == (25, 10)
     assert prior.energy.prior == 1.0
-    assert hybrid.local.iterations == 10 and hybrid.apf.particles == 25 and hybrid.apf.energy.prior == 1.0
+    assert hybrid.local.iterations == 10 and hybrid.apf.particles == 25 and hybrid.apf.energy.prior == 0.0
     assert moved.local.iterations == 4
