@@ -42,8 +42,8 @@ from mocap.render import get_rasterizer
 @dataclass(frozen=True)
 class LimbCheck:
     """flagged: (J,) bool per joint's limb; names: flagged limbs; errors: limb -> error;
-    unexplained: chain root -> share of the observed area within its reach left unexplained
-    (empty when that side is not checked)."""
+    unexplained: chain root -> share of the observed area left unexplained and charged to that
+    chain (empty when that side is not checked)."""
 
     flagged: np.ndarray
     names: list[str]
@@ -60,16 +60,13 @@ def descendants(parents: np.ndarray, joint: int) -> list[int]:
     return out
 
 
-def limb_chains(body: BodyModel) -> list[tuple[int, list[int], float]]:
-    """(root joint, its limbs, reach in metres) of each limb chain: a joint with angles whose
-    parent has none (the root's global twist does not count), whose subtree does not branch;
-    reach: the largest rest-pose distance from the root joint to a vertex of the chain."""
+def limb_chains(body: BodyModel) -> list[tuple[int, list[int]]]:
+    """(root joint, its limbs) of each limb chain: a joint with angles whose parent has none
+    (the root's global twist does not count), whose subtree does not branch."""
     has_dofs = np.zeros(body.num_joints, bool)
     has_dofs[np.unique(body.dof_joint)] = True
     has_vertices = np.zeros(body.num_joints, bool)
     has_vertices[np.unique(body.part_labels)] = True
-    verts, joints = body.rest(np.zeros(body.num_shape))
-    verts, joints = np.asarray(verts, np.float64), np.asarray(joints, np.float64)
     chains = []
     for j in range(1, body.num_joints):
         p = body.parents[j]
@@ -79,10 +76,8 @@ def limb_chains(body: BodyModel) -> list[tuple[int, list[int], float]]:
         if any(np.count_nonzero(body.parents == k) > 1 for k in sub):
             continue                                           # branches: the trunk, not a limb
         limbs = [k for k in sub if has_vertices[k]]
-        if not limbs:
-            continue
-        v = verts[np.isin(body.part_labels, limbs)]
-        chains.append((j, limbs, float(np.linalg.norm(v - joints[j], axis=1).max())))
+        if limbs:
+            chains.append((j, limbs))
     return chains
 
 
@@ -104,39 +99,48 @@ class MisalignmentDetector:
         self.chains = limb_chains(body) if unexplained > 0 else []
         self._raster = get_rasterizer(body.faces, body.num_vertices) if unexplained > 0 else None
         self._chain_vertex = np.full(body.num_vertices, -1)       # chain index of each vertex
-        for i, (_, limbs, _) in enumerate(self.chains):
+        for i, (_, limbs) in enumerate(self.chains):
             self._chain_vertex[np.isin(body.part_labels, limbs)] = i
+
+    def _observed(self, vertices: np.ndarray, masks: np.ndarray):
+        """What both sides of the check read: the observed masks at the check's scale
+        (C, h, w) and the vertices' pixels (C, V, 2) and depths (C, V) there."""
+        px, depth = project(self.small, vertices, return_depth=True)
+        return downscale_masks(masks, self.scale), px, depth
 
     def unexplained_share(self, vertices: np.ndarray, masks: np.ndarray) -> dict[int, float]:
         """Chain root -> observed pixels left unexplained by the model's silhouette whose
         nearest projected chain vertex is the chain's, as a share of the observed silhouette
         area (all views)."""
-        obs = downscale_masks(masks, self.scale)
+        return self._unexplained(*self._observed(vertices, masks))
+
+    def _unexplained(self, obs: np.ndarray, px: np.ndarray, depth: np.ndarray) -> dict[int, float]:
         C, h, w = obs.shape
-        px, depth = project(self.small, vertices, return_depth=True)
         model = self._raster(px, h, w, depth, near=0.05)
         grow = np.ones((2 * self.tolerance + 3,) * 2, np.uint8)
         counts = np.zeros(len(self.chains))
+        on_chain = self._chain_vertex >= 0
         for c in range(C):
             left = obs[c] & ~(cv2.dilate(model[c].astype(np.uint8), grow) > 0)
             left = cv2.erode(left.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
             ys, xs = np.nonzero(left)
-            front = self._chain_vertex >= 0
-            front &= depth[c] > 0.05
+            front = on_chain & (depth[c] > 0.05)
             if len(xs) == 0 or not front.any():
                 continue
             _, nearest = NearestPoints(px[c, front]).query(np.stack([xs, ys], 1).astype(np.float64))
             counts += np.bincount(self._chain_vertex[front][nearest], minlength=len(self.chains))
         area = max(int(obs.sum()), 1)
-        return {j: float(n / area) for (j, _, _), n in zip(self.chains, counts, strict=True)}
+        return {j: float(n / area) for (j, _), n in zip(self.chains, counts, strict=True)}
 
     def limb_errors(self, vertices: np.ndarray, masks: np.ndarray) -> np.ndarray:
         """(J,) share of each limb's vertices outside the observed silhouettes (NaN: no vertex)."""
-        obs = downscale_masks(masks, self.scale)
+        obs, px, _ = self._observed(vertices, masks)
+        return self._limb_errors(obs, px)
+
+    def _limb_errors(self, obs: np.ndarray, px: np.ndarray) -> np.ndarray:
         if self.tolerance:
             k = np.ones((2 * self.tolerance + 1,) * 2, np.uint8)
             obs = np.stack([cv2.dilate(o.astype(np.uint8), k) > 0 for o in obs])
-        px = project(self.small, vertices)                          # (C, V, 2)
         C, h, w = obs.shape
         u, v = np.round(px[..., 0]).astype(int), np.round(px[..., 1]).astype(int)
         inside_img = (u >= 0) & (u < w) & (v >= 0) & (v < h)
@@ -151,23 +155,20 @@ class MisalignmentDetector:
             err[j] = outside[self.body.part_labels == j].mean()
         return err
 
-    def __call__(self, vertices: np.ndarray, masks: np.ndarray,
-                 joints: np.ndarray | None = None) -> LimbCheck:
-        """vertices (V, 3), masks (C, H, W); joints (J, 3): the posed joints, needed for the
-        unexplained-pixel side (skipped without them)."""
-        err = self.limb_errors(vertices, masks)
+    def __call__(self, vertices: np.ndarray, masks: np.ndarray) -> LimbCheck:
+        """vertices (V, 3) posed, masks (C, H, W) observed."""
+        observed = self._observed(vertices, masks)
+        err = self._limb_errors(*observed[:2])
         if self.relative and self.baseline is None:
             self.baseline = np.minimum(np.nan_to_num(err), self.baseline_cap)
         base = self.baseline if self.relative else 0.0
         flagged = np.zeros(self.body.num_joints, bool)
         for j in np.flatnonzero(err - base > self.threshold):
             flagged[descendants(self.body.parents, int(j))] = True
-        share = {}
-        if self.chains and joints is not None:
-            share = self.unexplained_share(vertices, masks)
-            for (j, limbs, _) in self.chains:
-                if share[j] > self.unexplained:
-                    flagged[limbs] = True
+        share = self._unexplained(*observed) if self.chains else {}
+        for j, limbs in self.chains:
+            if share[j] > self.unexplained:
+                flagged[limbs] = True
         names = [self.body.joint_names[j] for j in np.flatnonzero(flagged)]
         return LimbCheck(flagged, names, {self.body.joint_names[j]: float(err[j]) for j in self.limbs},
                          {self.body.joint_names[j]: v for j, v in share.items()})

@@ -73,9 +73,8 @@ class HybridTracker(LocalTracker):
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, local = self.local_step(frame, predicted)
         t1 = time.perf_counter()
-        posed = self.shaped.pose(chi)
-        verts = posed.vertices[0]
-        check = self.detector(verts, frame.masks, posed.joints[0])
+        verts = self.shaped.pose(chi).vertices[0]
+        check = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
         decision = Misalignment(tuple(check.names), dict(check.errors), apf_called=bool(check.names))
         report = StepDiagnostics(local=local, misalignment=decision)

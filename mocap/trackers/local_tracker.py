@@ -93,9 +93,8 @@ class LocalTracker(SilhouetteInitialisation):
         start = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, local = self.local_step(frame, start)
         t1 = time.perf_counter()
-        posed = self.shaped.pose(chi)
-        verts = posed.vertices[0]
-        limbs = self.detector(verts, frame.masks, posed.joints[0])
+        verts = self.shaped.pose(chi).vertices[0]
+        limbs = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
         if self.sift is not None and frame.images is not None:
             self.sift.remember(frame.images, verts.astype(np.float64))
