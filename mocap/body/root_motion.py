@@ -16,8 +16,9 @@ These functions work on the rigid transforms instead:
   posed root point and a translation, composed on the left).
 
 The per-particle maps (exp, log, the relative rotations of the spread, the perturbation)
-run compiled with numba, one loop over the particles that mirrors the numpy formulas of
-:mod:`mocap.body.twists` (same branches and series), where the numpy versions spend their
+run compiled with numba, one loop over the particles built on the one-at-a-time kernels
+of :mod:`mocap.body.twists` (its numpy formulas, branches and series), where the numpy
+versions spend their
 time in the overhead of ~30 small array operations per call (the annealing calls them
 several times per layer). Results equal the numpy path to rounding (the last bits of sin,
 cos, arccos and of 3x3 products summed in another order; tests/body/test_root_motion.py);
@@ -43,98 +44,7 @@ def _use_compiled(compiled: bool | None) -> bool:
 
 
 if HAVE_NUMBA:
-
-    @njit(cache=True)
-    def _series_nb(theta):
-        """mocap.body.twists._series for one angle: a, b, c."""
-        t2 = theta * theta
-        if theta < 1e-4:
-            return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
-        s = np.sin(theta)
-        return s / theta, (1.0 - np.cos(theta)) / (theta * theta), (theta - s) / (theta**3)
-
-    @njit(cache=True)
-    def _hat_nb(wx, wy, wz, K):
-        K[0, 0], K[0, 1], K[0, 2] = 0.0, -wz, wy
-        K[1, 0], K[1, 1], K[1, 2] = wz, 0.0, -wx
-        K[2, 0], K[2, 1], K[2, 2] = -wy, wx, 0.0
-
-    @njit(cache=True)
-    def _mul3_nb(A, B, out):
-        for i in range(3):
-            for j in range(3):
-                out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-
-    @njit(cache=True)
-    def _exp_nb(xi, R, t, K, K2):
-        """se3_exp of one twist (v, omega) into R (3, 3), t (3,) (K, K2: scratch 3x3)."""
-        wx, wy, wz = xi[3], xi[4], xi[5]
-        theta = np.sqrt(wx * wx + wy * wy + wz * wz)
-        a, b, c = _series_nb(theta)
-        _hat_nb(wx, wy, wz, K)
-        _mul3_nb(K, K, K2)
-        for i in range(3):
-            t[i] = 0.0
-        for i in range(3):
-            for j in range(3):
-                e = 1.0 if i == j else 0.0
-                R[i, j] = e + a * K[i, j] + b * K2[i, j]
-                t[i] += (e + b * K[i, j] + c * K2[i, j]) * xi[j]
-
-    @njit(cache=True)
-    def _so3_exp_nb(wx, wy, wz, R, K, K2):
-        """so3_exp of one rotation vector into R (3, 3)."""
-        theta = np.sqrt(wx * wx + wy * wy + wz * wz)
-        a, b, _ = _series_nb(theta)
-        _hat_nb(wx, wy, wz, K)
-        _mul3_nb(K, K, K2)
-        for i in range(3):
-            for j in range(3):
-                R[i, j] = (1.0 if i == j else 0.0) + a * K[i, j] + b * K2[i, j]
-
-    @njit(cache=True)
-    def _so3_log_nb(R, out):
-        """so3_log of one rotation matrix into out (3,) (angle in [0, pi], the axis from the
-        symmetric part near pi), as mocap.body.twists.so3_log."""
-        cos = min(max((R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0, -1.0), 1.0)
-        theta = np.arccos(cos)
-        sin = np.sin(theta)
-        near_pi = sin < 1e-6
-        if theta < 1e-6:
-            scale = 0.5
-        else:
-            scale = theta / (2.0 * (1.0 if near_pi else sin))
-        out[0] = (R[2, 1] - R[1, 2]) * scale
-        out[1] = (R[0, 2] - R[2, 0]) * scale
-        out[2] = (R[1, 0] - R[0, 1]) * scale
-        if near_pi and theta > 1.0:
-            col = 0
-            for k in range(1, 3):
-                if (R[k, k] + 1.0) / 2.0 > (R[col, col] + 1.0) / 2.0:
-                    col = k
-            n0 = (R[0, col] + (1.0 if col == 0 else 0.0)) / 2.0
-            n1 = (R[1, col] + (1.0 if col == 1 else 0.0)) / 2.0
-            n2 = (R[2, col] + (1.0 if col == 2 else 0.0)) / 2.0
-            norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-            out[0], out[1], out[2] = n0 / norm * theta, n1 / norm * theta, n2 / norm * theta
-
-    @njit(cache=True)
-    def _log_nb(R, t, out, w, K, K2):
-        """se3_log of one rigid motion (R (3, 3), t (3,)) into out (6,) (w: scratch (3,))."""
-        _so3_log_nb(R, w)
-        theta = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-        if theta < 1e-4:
-            coef = 1.0 / 12.0
-        else:
-            coef = (1.0 - theta * np.sin(theta) / (2.0 * (1.0 - np.cos(theta)))) / (theta * theta)
-        _hat_nb(w[0], w[1], w[2], K)
-        _mul3_nb(K, K, K2)
-        for i in range(3):
-            s = 0.0
-            for j in range(3):
-                s += ((1.0 if i == j else 0.0) - 0.5 * K[i, j] + coef * K2[i, j]) * t[j]
-            out[i] = s
-            out[3 + i] = w[i]
+    from mocap.body.twists import mul3_into, se3_exp_one, se3_log_one, so3_exp_one, so3_log_one
 
     @njit(cache=True)
     def _frames_nb(xi, root, R, p):
@@ -143,7 +53,7 @@ if HAVE_NUMBA:
         K2 = np.empty((3, 3))
         t = np.empty(3)
         for n in range(xi.shape[0]):
-            _exp_nb(xi[n], R[n], t, K, K2)
+            se3_exp_one(xi[n], R[n], t, K, K2)
             for i in range(3):
                 p[n, i] = R[n, i, 0] * root[0] + R[n, i, 1] * root[1] + R[n, i, 2] * root[2] + t[i]
 
@@ -169,7 +79,7 @@ if HAVE_NUMBA:
             for i in range(3):
                 for j in range(3):
                     rel[i, j] = Rm[0, i] * R[n, 0, j] + Rm[1, i] * R[n, 1, j] + Rm[2, i] * R[n, 2, j]
-            _so3_log_nb(rel, w)
+            so3_log_one(rel, w)
             for i in range(3):
                 out[3 + i] += w[i] * w[i]
         for i in range(3):
@@ -217,7 +127,7 @@ if HAVE_NUMBA:
         for i in range(3):
             t[i] = pm[i] - (Rm[i, 0] * root[0] + Rm[i, 1] * root[1] + Rm[i, 2] * root[2])
         K, K2, w = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
-        _log_nb(Rm, t, out, w, K, K2)
+        se3_log_one(Rm, t, out, w, K, K2)
 
     @njit(cache=True)
     def _step_nb(start, end, step, Rs, ts):
@@ -225,14 +135,14 @@ if HAVE_NUMBA:
         K, K2 = np.empty((3, 3)), np.empty((3, 3))
         Re, te, w = np.empty((3, 3)), np.empty(3), np.empty(3)
         M, Mt = np.empty((3, 3)), np.empty(3)
-        _exp_nb(start, Rs, ts, K, K2)
-        _exp_nb(end, Re, te, K, K2)
+        se3_exp_one(start, Rs, ts, K, K2)
+        se3_exp_one(end, Re, te, K, K2)
         for i in range(3):                       # T_end T_start^-1 = [Re Rs^T, te - Re Rs^T ts]
             for j in range(3):
                 M[i, j] = Re[i, 0] * Rs[j, 0] + Re[i, 1] * Rs[j, 1] + Re[i, 2] * Rs[j, 2]
         for i in range(3):
             Mt[i] = te[i] - (M[i, 0] * ts[0] + M[i, 1] * ts[1] + M[i, 2] * ts[2])
-        _log_nb(M, Mt, step, w, K, K2)
+        se3_log_one(M, Mt, step, w, K, K2)
 
     @njit(cache=True)
     def _perturb_root_nb(xi, noise, root, out):
@@ -242,16 +152,16 @@ if HAVE_NUMBA:
         K, K2 = np.empty((3, 3)), np.empty((3, 3))
         t, p, Mt, w = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
         for n in range(xi.shape[0]):
-            _exp_nb(xi[n], R, t, K, K2)
+            se3_exp_one(xi[n], R, t, K, K2)
             for i in range(3):
                 p[i] = R[i, 0] * root[0] + R[i, 1] * root[1] + R[i, 2] * root[2] + t[i]
-            _so3_exp_nb(noise[n, 3], noise[n, 4], noise[n, 5], dR, K, K2)
-            _mul3_nb(dR, R, M)
+            so3_exp_one(noise[n, 3], noise[n, 4], noise[n, 5], dR, K, K2)
+            mul3_into(dR, R, M)
             for i in range(3):
                 # delta t = p - dR p + noise_v; M t = dR t + delta t
                 dp = dR[i, 0] * p[0] + dR[i, 1] * p[1] + dR[i, 2] * p[2]
                 Mt[i] = dR[i, 0] * t[0] + dR[i, 1] * t[1] + dR[i, 2] * t[2] + (p[i] - dp + noise[n, i])
-            _log_nb(M, Mt, out[n], w, K, K2)
+            se3_log_one(M, Mt, out[n], w, K, K2)
 
     @njit(cache=True)
     def _interpolate_nb(step, Rs, ts, u, out):
@@ -262,11 +172,11 @@ if HAVE_NUMBA:
         for n in range(u.shape[0]):
             for i in range(6):
                 xi[i] = u[n] * step[i]
-            _exp_nb(xi, E, t, K, K2)
-            _mul3_nb(E, Rs, M)
+            se3_exp_one(xi, E, t, K, K2)
+            mul3_into(E, Rs, M)
             for i in range(3):
                 Mt[i] = E[i, 0] * ts[0] + E[i, 1] * ts[1] + E[i, 2] * ts[2] + t[i]
-            _log_nb(M, Mt, out[n], w, K, K2)
+            se3_log_one(M, Mt, out[n], w, K, K2)
 
 
 def _transforms(xi: np.ndarray) -> np.ndarray:

@@ -163,3 +163,111 @@ def invert_rigid(T: np.ndarray) -> np.ndarray:
     out[..., :3, 3] = -(Rt @ T[..., :3, 3:4])[..., 0]
     out[..., 3, 3] = 1.0
     return out
+
+
+# --- compiled one-at-a-time versions (numba), for loops over particles ---------------------
+# The same formulas, branches and series as the numpy functions above, for one twist or
+# rotation, written into caller-provided arrays (no temporaries): the per-particle loops of
+# mocap.body.root_motion call them. Equal to the numpy versions to rounding
+# (tests/body/test_root_motion.py).
+
+try:
+    from numba import njit
+    HAVE_NUMBA = True
+except ImportError:             # pragma: no cover - numba is optional
+    njit = None
+    HAVE_NUMBA = False
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def series_one(theta):
+        """mocap.body.twists._series for one angle: a, b, c."""
+        t2 = theta * theta
+        if theta < 1e-4:
+            return 1.0 - t2 / 6.0, 0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0
+        s = np.sin(theta)
+        return s / theta, (1.0 - np.cos(theta)) / (theta * theta), (theta - s) / (theta**3)
+
+    @njit(cache=True)
+    def hat_into(wx, wy, wz, K):
+        K[0, 0], K[0, 1], K[0, 2] = 0.0, -wz, wy
+        K[1, 0], K[1, 1], K[1, 2] = wz, 0.0, -wx
+        K[2, 0], K[2, 1], K[2, 2] = -wy, wx, 0.0
+
+    @njit(cache=True)
+    def mul3_into(A, B, out):
+        for i in range(3):
+            for j in range(3):
+                out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+
+    @njit(cache=True)
+    def se3_exp_one(xi, R, t, K, K2):
+        """se3_exp of one twist (v, omega) into R (3, 3), t (3,) (K, K2: scratch 3x3)."""
+        wx, wy, wz = xi[3], xi[4], xi[5]
+        theta = np.sqrt(wx * wx + wy * wy + wz * wz)
+        a, b, c = series_one(theta)
+        hat_into(wx, wy, wz, K)
+        mul3_into(K, K, K2)
+        for i in range(3):
+            t[i] = 0.0
+        for i in range(3):
+            for j in range(3):
+                e = 1.0 if i == j else 0.0
+                R[i, j] = e + a * K[i, j] + b * K2[i, j]
+                t[i] += (e + b * K[i, j] + c * K2[i, j]) * xi[j]
+
+    @njit(cache=True)
+    def so3_exp_one(wx, wy, wz, R, K, K2):
+        """so3_exp of one rotation vector into R (3, 3)."""
+        theta = np.sqrt(wx * wx + wy * wy + wz * wz)
+        a, b, _ = series_one(theta)
+        hat_into(wx, wy, wz, K)
+        mul3_into(K, K, K2)
+        for i in range(3):
+            for j in range(3):
+                R[i, j] = (1.0 if i == j else 0.0) + a * K[i, j] + b * K2[i, j]
+
+    @njit(cache=True)
+    def so3_log_one(R, out):
+        """so3_log of one rotation matrix into out (3,) (angle in [0, pi], the axis from the
+        symmetric part near pi), as mocap.body.twists.so3_log."""
+        cos = min(max((R[0, 0] + R[1, 1] + R[2, 2] - 1.0) / 2.0, -1.0), 1.0)
+        theta = np.arccos(cos)
+        sin = np.sin(theta)
+        near_pi = sin < 1e-6
+        if theta < 1e-6:
+            scale = 0.5
+        else:
+            scale = theta / (2.0 * (1.0 if near_pi else sin))
+        out[0] = (R[2, 1] - R[1, 2]) * scale
+        out[1] = (R[0, 2] - R[2, 0]) * scale
+        out[2] = (R[1, 0] - R[0, 1]) * scale
+        if near_pi and theta > 1.0:
+            col = 0
+            for k in range(1, 3):
+                if (R[k, k] + 1.0) / 2.0 > (R[col, col] + 1.0) / 2.0:
+                    col = k
+            n0 = (R[0, col] + (1.0 if col == 0 else 0.0)) / 2.0
+            n1 = (R[1, col] + (1.0 if col == 1 else 0.0)) / 2.0
+            n2 = (R[2, col] + (1.0 if col == 2 else 0.0)) / 2.0
+            norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            out[0], out[1], out[2] = n0 / norm * theta, n1 / norm * theta, n2 / norm * theta
+
+    @njit(cache=True)
+    def se3_log_one(R, t, out, w, K, K2):
+        """se3_log of one rigid motion (R (3, 3), t (3,)) into out (6,) (w: scratch (3,))."""
+        so3_log_one(R, w)
+        theta = np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        if theta < 1e-4:
+            coef = 1.0 / 12.0
+        else:
+            coef = (1.0 - theta * np.sin(theta) / (2.0 * (1.0 - np.cos(theta)))) / (theta * theta)
+        hat_into(w[0], w[1], w[2], K)
+        mul3_into(K, K, K2)
+        for i in range(3):
+            s = 0.0
+            for j in range(3):
+                s += ((1.0 if i == j else 0.0) - 0.5 * K[i, j] + coef * K2[i, j]) * t[j]
+            out[i] = s
+            out[3 + i] = w[i]
