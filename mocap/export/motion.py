@@ -20,6 +20,10 @@ J joints, L landmarks, D DOFs, K shape coefficients; world metres, Z up, float64
     energy_evaluations (F,), seconds (F,)   effort and step time
     apf_called (F,) int8                    1/0; -1 where the tracker does not report it
     limb_names (M,), limb_errors (F, M), misaligned (F, M) bool   hybrid/local decisions
+    chain_names (K,), unexplained (F, K), unexplained_limit (F, K)   the two-sided check: each
+                                            limb chain's share of the observed area left
+                                            unexplained, and the share that flags it (NaN
+                                            where not checked)
     initial (F,) bool                       the frame is the initialisation
     lost (F,) bool                          the tracker reported the frame lost / low-confidence
     reprojection_px (F,)                    median landmark reprojection error (marker runs)
@@ -96,8 +100,9 @@ def decisions(diagnostics) -> dict:
     """The per-frame facts motion.npz keeps, from one estimate's diagnostics (a dict today;
     an object with the same attribute names also works). Keys: energy, energy_terms (dict),
     energy_evaluations, apf_called (None if not reported), limb_errors (dict), misaligned
-    (list of limb names), initial, lost, reprojection_px, landmarks / landmark_names (tracker's
-    own, may be None), weak_landmarks (list)."""
+    (list of limb names), unexplained / unexplained_limit (dicts by chain), initial, lost,
+    reprojection_px, landmarks / landmark_names (tracker's own, may be None), weak_landmarks
+    (list)."""
     d = diagnostics.as_dict() if hasattr(diagnostics, "as_dict") else diagnostics  # typed StepDiagnostics
     energy = _get(d, "energy")
     apf = _get(d, "apf_called")
@@ -109,6 +114,8 @@ def decisions(diagnostics) -> dict:
         "apf_called": None if apf is None else int(apf),
         "limb_errors": dict(_get(d, "limb_errors", None) or {}),
         "misaligned": list(_get(d, "misaligned_limbs", None) or []),
+        "unexplained": dict(_get(d, "unexplained", None) or {}),
+        "unexplained_limit": dict(_get(d, "unexplained_limit", None) or {}),
         "initial": bool(_get(d, "initial", False)),
         "lost": bool(_get(d, "lost", False)),
         "reprojection_px": float("nan") if rep is None else float(rep),
@@ -166,6 +173,7 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
     terms = _union([d["energy_terms"] for d in dec])
     limbs = _union([list(d["limb_errors"]) + d["misaligned"] for d in dec])
     weak = _union([d["weak_landmarks"] for d in dec])
+    chains = _union([list(d["unexplained"]) for d in dec])
     out = {
         "format": np.array(FORMAT), "fps": np.float64(fps),
         "frame_index": np.arange(F), "timestamps": np.arange(F) / float(fps),
@@ -186,6 +194,9 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
                                 np.float64).reshape(F, len(limbs)),
         "misaligned": np.array([[n in d["misaligned"] for n in limbs] for d in dec],
                                bool).reshape(F, len(limbs)),
+        "chain_names": np.array(chains, dtype=str),
+        **{k: np.array([[d[k].get(n, np.nan) for n in chains] for d in dec],
+                       np.float64).reshape(F, len(chains)) for k in ("unexplained", "unexplained_limit")},
         "initial": np.array([d["initial"] for d in dec], bool),
         "lost": np.array([d["lost"] for d in dec], bool),
         "reprojection_px": np.array([d["reprojection_px"] for d in dec], np.float64),
@@ -229,7 +240,8 @@ def write_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
 
 PER_FRAME = ("tracker_landmarks", "tracker_landmark_names",
              "energy", "energy_term_names", "energy_terms", "energy_evaluations", "seconds",
-             "apf_called", "limb_names", "limb_errors", "misaligned", "initial", "lost",
+             "apf_called", "limb_names", "limb_errors", "misaligned", "chain_names", "unexplained",
+             "unexplained_limit", "initial", "lost",
              "reprojection_px", "weak_landmark_names", "weak_landmarks")
 INFO = ("body", "model_hash", "tracker", "data", "run_id", "seed")
 

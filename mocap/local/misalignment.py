@@ -22,11 +22,17 @@ parent has none, with its unbranched subtree: an arm from the shoulder, a leg fr
 is charged with the leftover pixels whose nearest projected chain vertex is its own (the
 trunk is not a candidate: a missing arm beside the body is nearest to the arm's remaining
 part). A chain charged with more than ``unexplained`` x the observed silhouette area (summed
-over views) is misaligned with all its limbs.
+over views), above its recent level, is misaligned with all its limbs: the limit is
+``unexplained`` + the median of the chain's shares over the last ``unexplained_window`` checks
+(0: a fixed limit). Real silhouettes leave pixels that no pose of the body explains (a cast
+shadow at the feet, a loose coat) in every frame; a limb that goes wrong shows as a rise above
+that level, while a fixed limit fires on every frame. A limb that stays wrong for longer than
+half the window becomes the level itself: the search has had that many frames to fix it.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 
 import cv2
@@ -43,12 +49,14 @@ from mocap.render import get_rasterizer
 class LimbCheck:
     """flagged: (J,) bool per joint's limb; names: flagged limbs; errors: limb -> error;
     unexplained: chain root -> share of the observed area left unexplained and charged to that
-    chain (empty when that side is not checked)."""
+    chain (empty when that side is not checked); unexplained_limit: chain root -> the share
+    above which it is flagged at this check."""
 
     flagged: np.ndarray
     names: list[str]
     errors: dict
     unexplained: dict = field(default_factory=dict)
+    unexplained_limit: dict = field(default_factory=dict)
 
 
 def descendants(parents: np.ndarray, joint: int) -> list[int]:
@@ -84,7 +92,7 @@ def limb_chains(body: BodyModel) -> list[tuple[int, list[int]]]:
 class MisalignmentDetector:
     def __init__(self, body: BodyModel, rig: Rig, threshold: float = 0.15, resolution: int = 256,
                  tolerance_px: int = 1, scale: float | None = None, relative: bool = True,
-                 baseline_cap: float = 0.15, unexplained: float = 0.0):
+                 baseline_cap: float = 0.15, unexplained: float = 0.0, unexplained_window: int = 0):
         if scale is None:
             scale = min(1.0, resolution / float(np.max(rig.sizes)))
         self.body, self.threshold, self.scale = body, threshold, scale
@@ -95,7 +103,11 @@ class MisalignmentDetector:
         self.limbs = [j for j in range(body.num_joints) if np.any(body.part_labels == j)]
         if unexplained < 0:
             raise ValueError(f"unexplained must be >= 0, got {unexplained}")
+        if unexplained_window < 0:
+            raise ValueError(f"unexplained_window must be >= 0, got {unexplained_window}")
         self.unexplained = float(unexplained)
+        self.recent: deque = deque(maxlen=int(unexplained_window) or None)   # past shares (K,)
+        self.window = int(unexplained_window)
         self.chains = limb_chains(body) if unexplained > 0 else []
         self._raster = get_rasterizer(body.faces, body.num_vertices) if unexplained > 0 else None
         self._chain_vertex = np.full(body.num_vertices, -1)       # chain index of each vertex
@@ -166,12 +178,23 @@ class MisalignmentDetector:
         for j in np.flatnonzero(err - base > self.threshold):
             flagged[descendants(self.body.parents, int(j))] = True
         share = self._unexplained(*observed) if self.chains else {}
-        for j, limbs in self.chains:
-            if share[j] > self.unexplained:
+        limit = self.unexplained_limits()
+        for (j, limbs), lim in zip(self.chains, limit, strict=True):
+            if share[j] > lim:
                 flagged[limbs] = True
+        if self.chains and self.window:
+            self.recent.append(np.array([share[j] for j, _ in self.chains]))
         names = [self.body.joint_names[j] for j in np.flatnonzero(flagged)]
+        chain_names = [self.body.joint_names[j] for j, _ in self.chains]
         return LimbCheck(flagged, names, {self.body.joint_names[j]: float(err[j]) for j in self.limbs},
-                         {self.body.joint_names[j]: v for j, v in share.items()})
+                         {self.body.joint_names[j]: v for j, v in share.items()},
+                         dict(zip(chain_names, map(float, limit), strict=True)))
+
+    def unexplained_limits(self) -> np.ndarray:
+        """(K,) the share above which each chain is flagged at the next check: ``unexplained``
+        plus the median of its last ``unexplained_window`` shares (none yet: ``unexplained``)."""
+        level = np.median(np.stack(self.recent), axis=0) if self.recent else 0.0
+        return self.unexplained + np.zeros(len(self.chains)) + level
 
     def free_dofs(self, check: LimbCheck) -> np.ndarray:
         """(D,) bool: the DOFs a global search over the misaligned limbs varies: those of each

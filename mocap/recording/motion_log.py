@@ -44,9 +44,17 @@ class MotionLogger:
             rec.log("plots/decisions/misaligned", rr.Scalars(len(dec["misaligned"])))
             for limb, err in dec["limb_errors"].items():
                 rec.log(f"plots/decisions/limb_error/{limb}", rr.Scalars(float(err)))
+            for chain, share in dec["unexplained"].items():
+                rec.log(f"plots/decisions/unexplained/{chain}/share", rr.Scalars(float(share)))
+                rec.log(f"plots/decisions/unexplained/{chain}/limit",
+                        rr.Scalars(float(dec["unexplained_limit"][chain])))
             limbs = ", ".join(dec["misaligned"])
             text = (f"frame {f}: APF on {limbs}" if limbs and dec["apf_called"]
                     else f"frame {f}: misaligned {limbs}" if limbs else f"frame {f}: all limbs aligned")
+            over = [f"{c} {100 * v:.2f}% > {100 * dec['unexplained_limit'][c]:.2f}%"
+                    for c, v in dec["unexplained"].items() if v > dec["unexplained_limit"][c]]
+            if over:
+                text += " (unexplained pixels: " + ", ".join(over) + ")"
             rec.log("log/decisions", rr.TextLog(text, level="WARN" if dec["misaligned"] else "INFO"))
         if dec["lost"]:
             rec.log("log/decisions", rr.TextLog(f"frame {f}: tracker lost", level="ERROR"))

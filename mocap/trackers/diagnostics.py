@@ -54,13 +54,18 @@ class Misalignment:
     """The misalignment check after local optimisation: flagged limbs, each limb's error
     (share of its vertices outside the observed silhouettes); for the hybrid tracker,
     whether the APF ran (None: the tracker has no APF fallback), over which DOFs, and whether
-    its result was kept (it is only where it lowers the frame's silhouette energy)."""
+    its result was kept (it is only where it lowers the frame's silhouette energy). With the
+    two-sided check, each limb chain's share of the observed area left unexplained
+    (``unexplained``, by chain root) and the share above which it was flagged
+    (``unexplained_limit``)."""
 
     limbs: tuple[str, ...] = ()
     limb_errors: Mapping[str, float] = field(default_factory=dict)
     apf_called: bool | None = None
     free_dofs: tuple[str, ...] = ()
     apf_accepted: bool | None = None
+    unexplained: Mapping[str, float] = field(default_factory=dict)
+    unexplained_limit: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -169,6 +174,8 @@ class StepDiagnostics:
         if self.misalignment is not None:
             m = self.misalignment
             d.update(misaligned_limbs=list(m.limbs), limb_errors=dict(m.limb_errors))
+            if m.unexplained:
+                d.update(unexplained=dict(m.unexplained), unexplained_limit=dict(m.unexplained_limit))
             if m.apf_called is not None:
                 d["apf_called"] = int(m.apf_called)
                 if m.apf_called:

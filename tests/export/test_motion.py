@@ -31,6 +31,7 @@ def _estimates(body, F=3, rng=None):
     diags = [{"initial": True}] + [
         {"energy": 1.5 + f, "energy_terms": {"silhouette": 1.0, "prior": 0.5 + f}, "apf_called": f % 2,
          "misaligned_limbs": ["l_knee"] if f == 2 else [], "limb_errors": {"l_knee": 0.1 * f},
+         "unexplained": {"l_hip": 0.01 * f}, "unexplained_limit": {"l_hip": 0.005 + f},
          "energy_evaluations": 10} for f in range(1, F)]
     return [Estimate(c, alpha, d) for c, d in zip(chis, diags, strict=True)]
 
@@ -45,6 +46,9 @@ def test_motion_round_trips_with_decisions(tmp_path, body):
     assert pf["apf_called"].tolist() == [-1, 1, 0]
     assert pf["misaligned"][:, list(pf["limb_names"]).index("l_knee")].tolist() == [False, False, True]
     assert list(pf["energy_term_names"]) == ["silhouette", "prior"]
+    assert list(pf["chain_names"]) == ["l_hip"]
+    np.testing.assert_array_equal(pf["unexplained"][:, 0], [np.nan, 0.01, 0.02])
+    np.testing.assert_array_equal(pf["unexplained_limit"][:, 0], [np.nan, 1.005, 2.005])
     np.testing.assert_allclose(pf["energy_terms"][2], [1.0, 2.5])
     assert m.info["seed"] == 3 and len(m.info["model_hash"]) == 12
     assert m.vertices.shape == (3, body.num_vertices, 3) and m.faces.shape == body.faces.shape

@@ -16,8 +16,10 @@ def test_decisions_and_motion_are_logged(tmp_path, body):
     log = MotionLogger(body.dof_names)
     chi = np.zeros(body.num_dofs)
     chi[7] = 0.5
-    diags = [{"apf_called": 0, "misaligned_limbs": [], "limb_errors": {"l_knee": 0.1}},
-             {"apf_called": 1, "misaligned_limbs": ["l_knee"], "limb_errors": {"l_knee": 0.4}}]
+    diags = [{"apf_called": 0, "misaligned_limbs": [], "limb_errors": {"l_knee": 0.1},
+              "unexplained": {"l_hip": 0.001}, "unexplained_limit": {"l_hip": 0.005}},
+             {"apf_called": 1, "misaligned_limbs": ["l_knee"], "limb_errors": {"l_knee": 0.4},
+              "unexplained": {"l_hip": 0.02}, "unexplained_limit": {"l_hip": 0.006}}]
     for f, d in enumerate(diags):
         rec.set_time("frame", sequence=f)
         log.frame(rec, f, Estimate(chi * (f + 1), np.zeros(body.num_shape), d))
@@ -28,6 +30,17 @@ def test_decisions_and_motion_are_logged(tmp_path, body):
     assert s["/plots/decisions/apf_called"] == {0: 0.0, 1: 1.0}
     assert s["/plots/decisions/misaligned"] == {0: 0.0, 1: 1.0}
     assert s["/plots/decisions/limb_error/l_knee"] == {0: 0.1, 1: 0.4}
+    assert s["/plots/decisions/unexplained/l_hip/share"] == {0: 0.001, 1: 0.02}
+    assert s["/plots/decisions/unexplained/l_hip/limit"] == {0: 0.005, 1: 0.006}
+    texts = {}
+    for chunk in rr.chunk.RrdReader(str(path)).stream():
+        if chunk.entity_path == "/log/decisions":
+            rb = chunk.to_record_batch()
+            for f, t in zip(rb.column("frame").to_pylist(), rb.column("TextLog:text").to_pylist(),
+                            strict=True):
+                texts[f] = t[0]
+    assert "unexplained" not in texts[0]
+    assert texts[1] == "frame 1: APF on l_knee (unexplained pixels: l_hip 2.00% > 0.60%)"
     dof = body.dof_names[7]
     assert s[f"/plots/motion/chi/{dof}"][1] == np.rad2deg(1.0)
     assert "/log/decisions" in info["entities"] and "/run/shape" in info["entities"]

@@ -170,3 +170,39 @@ def test_restart_first_layer_draws_free_joint_angles_uniformly_once():
                                perturb(x, std, limits, np.random.default_rng(1)))
     with pytest.raises(ValueError, match="restart"):
         RestartFirstLayer(1.5, free)
+
+
+def test_unexplained_limit_follows_each_chains_recent_level(body, seq6):
+    """A cast shadow at the feet (the silhouette-noise model) leaves observed pixels no pose
+    explains, in every frame: a fixed limit flags the legs at every check; the limit that
+    follows each chain's recent median flags them at the first check only (no history yet),
+    and still flags an arm that goes wrong afterwards."""
+    from mocap.data.corruption import SilhouetteNoise
+    from mocap.local.misalignment import MisalignmentDetector
+
+    noise = SilhouetteNoise(shadow=1.0, shadow_size=1.0)
+    rng = np.random.default_rng(0)
+    masks = np.stack([noise.apply(m, rng) for m in seq6.masks[1]])
+    shaped = body.shaped(seq6.gt.alpha)
+    truth = shaped.pose(seq6.gt.chi[1][None]).vertices[0]
+    folded = seq6.gt.chi[1].copy()
+    for name in ("l_elbow_flex", "l_shoulder_rot"):
+        k = body.dof_index(name)
+        folded[k] = body.limits[k, 1] - 0.05
+    folded = shaped.pose(folded[None]).vertices[0]
+    legs = {"l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle"} & set(body.joint_names)
+
+    fixed = MisalignmentDetector(body, seq6.rig, unexplained=0.005)
+    following = MisalignmentDetector(body, seq6.rig, unexplained=0.005, unexplained_window=4)
+    for i in range(4):
+        a, b = fixed(truth, masks), following(truth, masks)
+        assert max(a.unexplained["l_hip"], a.unexplained["r_hip"]) > 0.005       # the shadow
+        assert legs & set(a.names)
+        assert bool(legs & set(b.names)) == (i == 0), (i, b.names, b.unexplained_limit)
+        assert b.unexplained == a.unexplained
+    same = [a.unexplained[c] for c in ("l_shoulder", "r_shoulder", "l_hip", "r_hip")]
+    np.testing.assert_allclose(following.unexplained_limits(), 0.005 + np.array(same))
+    out = following(folded, masks)
+    assert {"l_shoulder", "l_elbow", "l_wrist"} <= set(out.names) and not legs & set(out.names)
+    with pytest.raises(ValueError, match="unexplained_window"):
+        MisalignmentDetector(body, seq6.rig, unexplained=0.005, unexplained_window=-1)
