@@ -5,7 +5,9 @@ whose distance no pose can change (the "bones" used to fit the subject's size).
 The catalogue holds the project's default marker set (the 15 HumanEva joints plus head
 top, chest, hands and toes, :data:`mocap.body.landmarks.DEFAULT_LANDMARKS`) and the extra
 points of 2D keypoint detectors (OpenPose BODY_25 / BODY_25B: nose, eyes, ears, neck,
-neck base (between the clavicles: HumanEva's ``thorax``), mid-hip, heels, small toes).
+neck base (between the clavicles: HumanEva's ``thorax``), mid-hip, heels, small toes) and the
+points that evaluation skeletons name where no joint of ours sits (the centre of the head:
+the centroid of the head part).
 Face and foot points are approximate: the vertex of the head or foot part furthest along a
 direction on the mean body.
 """
@@ -36,7 +38,23 @@ KEYPOINT_LANDMARKS: tuple[Mapping, ...] = (
     {"name": "r_small_toe", "joint": "r_ankle", "extreme": [-1, -1, -0.3]},
 )
 
-CATALOGUE: dict[str, Mapping] = {e["name"]: e for e in (*DEFAULT_LANDMARKS, *KEYPOINT_LANDMARKS)}
+#: points that ground-truth skeletons name and the two sets above do not hold
+EVALUATION_LANDMARKS: tuple[Mapping, ...] = (
+    {"name": "head_centre", "joint": "head", "centroid": True},
+)
+
+CATALOGUE: dict[str, Mapping] = {e["name"]: e for e in (*DEFAULT_LANDMARKS, *KEYPOINT_LANDMARKS,
+                                                          *EVALUATION_LANDMARKS)}
+
+
+def landmarks_with(body: BodyModel, names: Sequence[str | None]) -> LandmarkSet:
+    """The default landmark set plus the catalogue's landmarks among ``names`` that are neither
+    a joint of ``body`` nor in the default set (names it does not know are ignored): the points
+    a ground-truth skeleton is scored on."""
+    default = {e["name"] for e in DEFAULT_LANDMARKS}
+    extra = [CATALOGUE[n] for n in dict.fromkeys(n for n in names if n)
+             if n in CATALOGUE and n not in default and n not in body.joint_names]
+    return LandmarkSet(body, (*DEFAULT_LANDMARKS, *extra))
 
 
 def landmark_entries(spec: str | Sequence[str | Mapping] | None,

@@ -4,8 +4,10 @@ forward kinematics. They are the markers of Canton-Ferrer et al. 2010 and the ke
 
 A landmark is attached to one joint's rigid transform G_j (not skinned) at a rest-pose point
 given either as that joint's (or another joint's) rest position, as the midpoint of several
-joints' rest positions (``between``: e.g. the base of the neck between the clavicles), or as
-a mesh vertex (the vertex nearest a direction from the joint, chosen once on the mean body).
+joints' rest positions (``between``: e.g. the base of the neck between the clavicles), as
+a mesh vertex (the vertex nearest a direction from the joint, chosen once on the mean body),
+or as the centroid of the vertices of the joint's part (``centroid``: e.g. the centre of the
+head), all linear in the shape.
 """
 
 from __future__ import annotations
@@ -21,13 +23,14 @@ from mocap.body.model import BodyModel, ShapedBody
 @dataclass(frozen=True)
 class Landmark:
     """name; joint whose transform carries it; rest point: ``at`` joint, the mean of the
-    ``between`` joints, or ``vertex`` index."""
+    ``between`` joints, ``vertex`` index, or the mean of ``vertices``."""
 
     name: str
     joint: str
     at: str | None = None
     vertex: int | None = None
     between: tuple[str, ...] = ()
+    vertices: tuple[int, ...] = ()
 
     def rest_point(self, model: BodyModel, joints: np.ndarray, verts: np.ndarray) -> np.ndarray:
         """The rest point from rest joints (..., J, 3) and vertices (..., V, 3) -> (..., 3)."""
@@ -35,6 +38,8 @@ class Landmark:
             return joints[..., model.joint_index(self.at), :]
         if self.between:
             return joints[..., [model.joint_index(n) for n in self.between], :].mean(axis=-2)
+        if self.vertices:
+            return verts[..., list(self.vertices), :].mean(axis=-2)
         return verts[..., self.vertex, :]
 
 
@@ -94,8 +99,14 @@ class LandmarkSet:
                 cand = np.flatnonzero(mask)
                 v = int(cand[np.argmax((mean_verts[cand] - mean_joints[j]) @ d)])
                 items.append(Landmark(name, joint, vertex=v))
+            elif e.get("centroid"):
+                part = tuple(int(v) for v in np.flatnonzero(model.part_labels == j))
+                if not part:
+                    raise ValueError(f"landmark '{name}': joint '{joint}' has no vertices")
+                items.append(Landmark(name, joint, vertices=part))
             else:
-                raise ValueError(f"landmark '{name}' needs 'at', 'between', 'vertex' or 'extreme'")
+                raise ValueError(f"landmark '{name}' needs 'at', 'between', 'vertex', 'extreme' "
+                                 "or 'centroid'")
         self.landmarks = tuple(items)
         self.names = tuple(lm.name for lm in items)
         if len(set(self.names)) != len(self.names):

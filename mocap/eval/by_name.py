@@ -2,9 +2,10 @@
 
 Ground truth is (F, J, 3) points with J names (and optionally an (F, J) validity mask). Each
 ground-truth name maps to one of the estimate's named points: mocap's joints or, where a
-skeleton marks a point no joint sits at (top of the head, toes), a landmark of the body's
-default landmark set. ``SKELETONS`` documents the mappings of common skeletons; names of
-mocap's own skeleton map to themselves. Points of a skeleton that mocap does not model (eyes,
+skeleton marks a point no joint sits at (top of the head, toes, the base of the neck, the
+centre of the head), a landmark of the catalogue (:mod:`mocap.body.catalogue`).
+``SKELETONS`` documents the mappings of common skeletons; names of mocap's own skeleton map
+to themselves. Points of a skeleton that mocap does not model (eyes,
 ears, nose, heels) map to ``None`` and are left out of the scores (listed in ``unscored``).
 
 Metrics (mm):
@@ -27,8 +28,11 @@ import numpy as np
 
 # ground-truth name -> mocap joint or landmark name (None: not modelled by mocap)
 SKELETONS: dict[str, dict[str, str | None]] = {
-    # HumanEva-I/II, the 15 joints of the common evaluation protocol
-    "humaneva15": {"pelvis": "pelvis", "thorax": "thorax", "head": "head",
+    # HumanEva-I/II, the 15 joints of the common evaluation protocol. Its pelvis is the
+    # midpoint of the hip joints (ours sits above it), its thorax the base of the neck between
+    # the clavicles (our ``thorax`` joint is mid-spine, 0.1-0.15 m lower), its head a point
+    # inside the head (ours is the skull base): the centroid of our head part.
+    "humaneva15": {"pelvis": "mid_hip", "thorax": "neck_base", "head": "head_centre",
                    "lsho": "l_shoulder", "lelb": "l_elbow", "lwri": "l_wrist",
                    "rsho": "r_shoulder", "relb": "r_elbow", "rwri": "r_wrist",
                    "lhip": "l_hip", "lkne": "l_knee", "lank": "l_ankle",
@@ -49,7 +53,7 @@ SKELETONS: dict[str, dict[str, str | None]] = {
     # OpenPose BODY_25
     "body25": {"Nose": None, "Neck": "neck", "RShoulder": "r_shoulder", "RElbow": "r_elbow",
                "RWrist": "r_wrist", "LShoulder": "l_shoulder", "LElbow": "l_elbow",
-               "LWrist": "l_wrist", "MidHip": "pelvis", "RHip": "r_hip", "RKnee": "r_knee",
+               "LWrist": "l_wrist", "MidHip": "mid_hip", "RHip": "r_hip", "RKnee": "r_knee",
                "RAnkle": "r_ankle", "LHip": "l_hip", "LKnee": "l_knee", "LAnkle": "l_ankle",
                "REye": None, "LEye": None, "REar": None, "LEar": None, "LBigToe": "l_toe",
                "LSmallToe": None, "LHeel": None, "RBigToe": "r_toe", "RSmallToe": None,
@@ -208,12 +212,13 @@ class NameScorer:
     mocap's own names: the 15 HumanEva evaluation joints (``mocap.eval.metrics.EVAL_JOINTS``)."""
 
     def __init__(self, body, gt):
-        from mocap.body.landmarks import LandmarkSet
+        from mocap.body.catalogue import landmarks_with
         from mocap.eval.metrics import EVAL_JOINTS
 
         check_ground_truth(gt, body)
         self.body, self.gt = body, gt
-        self.landmarks = LandmarkSet(body)
+        targets = SKELETONS[gt.skeleton].values() if gt.skeleton in SKELETONS else gt.joint_names
+        self.landmarks = landmarks_with(body, list(targets))
         own = not gt.skeleton
         self.kwargs = {"skeleton": gt.skeleton or None, "only": EVAL_JOINTS if own else None,
                        "required": EVAL_JOINTS if own else ()}

@@ -155,14 +155,23 @@ class OracleFit:
     metrics: dict
 
 
-class _JointFunction:
-    """Joint positions of the body as a function of shape and pose, without skinning."""
+class _PointFunction:
+    """Named points of the body (joints, and landmarks of the catalogue) as a function of shape
+    and pose, without skinning: landmarks ride their joint's transform, their rest points
+    linear in the shape (:func:`mocap.body.catalogue.rest_point_basis`)."""
 
     def __init__(self, body: BodyModel, names: Sequence[str]):
+        from mocap.body.catalogue import landmarks_with, rest_point_basis
+
         self.body = body
-        self.index = [body.joint_index(n) for n in names]
+        marks = landmarks_with(body, [n for n in names if n not in body.joint_names])
+        self.is_joint = np.array([n in body.joint_names for n in names])
+        self.index = np.array([body.joint_index(n) if j else marks.names.index(n)
+                               for n, j in zip(names, self.is_joint, strict=True)], int)
+        self.carrier = marks.joint
         d = body.data
         self.mean, self.basis = d.joints_mean.astype(np.float64), d.joints_basis.astype(np.float64)
+        self.marks_mean, self.marks_basis = rest_point_basis(body, marks)
 
     def __call__(self, alpha: np.ndarray, chi: np.ndarray) -> np.ndarray:
         """alpha (K,), chi (P, D) -> (P, S, 3) float64."""
@@ -170,7 +179,14 @@ class _JointFunction:
         rest = self.mean + np.einsum("k,kjc->jc", alpha, self.basis)
         axes = resolve_axes(b.dofs, b.joint_names, rest)
         G = chain_transforms(b.parents, b.dof_joint, axes, rest, chi[:, :6], chi[:, 6:])
-        return posed_joints(G, rest)[:, self.index]
+        out = np.empty((len(chi), len(self.index), 3))
+        out[:, self.is_joint] = posed_joints(G, rest)[:, self.index[self.is_joint]]
+        if not self.is_joint.all():
+            k = self.index[~self.is_joint]
+            R = self.marks_mean[k] + np.einsum("k,klc->lc", alpha, self.marks_basis[:, k])
+            Gl = G[:, self.carrier[k]]
+            out[:, ~self.is_joint] = (Gl[..., :3, :3] @ R[..., None])[..., 0] + Gl[..., :3, 3]
+        return out
 
 
 def _kabsch(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -190,8 +206,8 @@ def fit_oracle(body: BodyModel, gt_names: Sequence[str], gt_joints: np.ndarray,
                seed: int = 0) -> OracleFit:
     """Fit one shape and per-frame poses of ``body`` to ground-truth joints (F, J, 3) metres.
 
-    Only joints (not landmarks) are fitted; ground-truth names that map to landmarks or to
-    nothing are left out. Bounded trust-region least squares on the joint positions, joint
+    Every ground-truth name the skeleton maps to a joint or a landmark of the catalogue is fitted
+    (names that map to nothing are left out). Bounded trust-region least squares on the points, joint
     limits as bounds, shape coefficients within +-``shape_bound``:
     1. poses of every frame with the mean shape, from ``starts`` starting points (the rest
        pose and random poses within the limits; the root from a Kabsch fit of the torso),
@@ -199,21 +215,22 @@ def fit_oracle(body: BodyModel, gt_names: Sequence[str], gt_joints: np.ndarray,
     2. shape and poses jointly on ``shape_frames`` frames spread over the sequence (dense);
     3. every frame's pose with that shape, from step 1's poses.
     """
-    from mocap.body.landmarks import LandmarkSet
+    from mocap.body.catalogue import CATALOGUE
 
-    known = list(dict.fromkeys([*body.joint_names, *LandmarkSet(body).names]))
-    m = _match(gt_names, gt_joints, valid, known, skeleton, keep=body.joint_names)
+    known = list(dict.fromkeys([*body.joint_names, *CATALOGUE]))
+    m = _match(gt_names, gt_joints, valid, known, skeleton)
     if len(m.ours) < 4:
         raise ValueError(f"the oracle needs at least 4 ground-truth joints of the body, got {m.ours}")
     F, S = m.gt.shape[:2]
     D, K = body.num_dofs, body.num_shape
-    fn = _JointFunction(body, m.ours)
+    fn = _PointFunction(body, m.ours)
     w = m.valid.astype(np.float64)[..., None]
     target = np.where(m.valid[..., None], m.gt, 0.0)
     lo_d = np.where(np.isfinite(body.limits[:, 0]), body.limits[:, 0], -np.inf)
     hi_d = np.where(np.isfinite(body.limits[:, 1]), body.limits[:, 1], np.inf)
-    torso = [k for k, n in enumerate(m.ours) if n in ("pelvis", "l_hip", "r_hip", "thorax", "spine",
-                                                      "neck", "l_shoulder", "r_shoulder")]
+    torso = [k for k, n in enumerate(m.ours) if n in ("pelvis", "mid_hip", "l_hip", "r_hip", "thorax",
+                                                      "spine", "neck", "neck_base", "l_shoulder",
+                                                      "r_shoulder")]
 
     def root_start(alpha: np.ndarray, angles: np.ndarray, frames: np.ndarray) -> np.ndarray:
         chi = np.zeros((len(frames), D))
@@ -279,5 +296,5 @@ def fit_oracle(body: BodyModel, gt_names: Sequence[str], gt_joints: np.ndarray,
                           tr_solver="exact", max_nfev=100).x[n * D:]
     # 3. every pose with that shape
     chi, _ = fit_poses(alpha, best)
-    est = body.shaped(alpha).joints(chi.astype(body.dtype))[:, fn.index].astype(np.float64)
+    est = fn(alpha, chi)
     return OracleFit(alpha=alpha, chi=chi, metrics=_scores(est, m))

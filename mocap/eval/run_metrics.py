@@ -50,24 +50,7 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     tracked = seconds[1:]
     out: dict = {"frames": F}
     if seq.gt is not None:
-        chis = np.stack([e.chi for e in estimates])
-        alpha = estimates[-1].alpha
-        shaped = body.shaped(alpha)
-        scorer = NameScorer(body, seq.gt)
-        scores = scorer.metrics(shaped, chis)     # joints matched by name
-        out.update({k: v for k, v in scores.items() if k not in ("scored", "unscored")})
-        out["frames_lost"] = int(np.sum(np.asarray(scores["per_frame_mm"][1:]) > LOST_MM))
-        if seq.gt.chi is None and {"l_hip", "r_hip"} <= set(scorer.mapping.values()):
-            # data our model did not generate: errors fair under mismatch, and the floor
-            out["mismatch"] = mismatch_metrics(scorer.points(shaped, chis), seq.gt.joint_names,
-                                               seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
-            out["oracle"] = oracle_metrics(body, seq, F)
-        if scores["unscored"]:
-            out["unscored_joints"] = scores["unscored"]
-        landmarks = LandmarkSet(body)
-        if seq.gt.markers is not None and tuple(seq.gt.marker_names) == landmarks.names:
-            est_markers = landmarks.positions(shaped, chis)
-            out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
+        out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]), estimates[-1].alpha))
     elif seq.detections is not None and len(seq.detections):
         from mocap.eval.keypoint_metrics import keypoint_run_metrics
 
@@ -78,4 +61,29 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     calls = [e.diagnostics.apf_called for e in estimates[1:] if e.diagnostics.apf_called is not None]
     if calls:
         out["apf_calls_per_frame"] = float(np.mean(calls))
+    return out
+
+
+def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray) -> dict:
+    """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,)
+    (frame 0: the initialisation): what a run is re-scored with when the evaluation changes
+    (``experiments/rescore.py``)."""
+    F = len(chis)
+    out: dict = {}
+    shaped = body.shaped(alpha)
+    scorer = NameScorer(body, seq.gt)
+    scores = scorer.metrics(shaped, chis)     # joints matched by name
+    out.update({k: v for k, v in scores.items() if k not in ("scored", "unscored")})
+    out["frames_lost"] = int(np.sum(np.asarray(scores["per_frame_mm"][1:]) > LOST_MM))
+    if seq.gt.chi is None and {"l_hip", "r_hip"} <= set(scorer.mapping.values()):
+        # data our model did not generate: errors fair under mismatch, and the floor
+        out["mismatch"] = mismatch_metrics(scorer.points(shaped, chis), seq.gt.joint_names,
+                                           seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
+        out["oracle"] = oracle_metrics(body, seq, F)
+    if scores["unscored"]:
+        out["unscored_joints"] = scores["unscored"]
+    landmarks = LandmarkSet(body)
+    if seq.gt.markers is not None and tuple(seq.gt.marker_names) == landmarks.names:
+        est_markers = landmarks.positions(shaped, chis)
+        out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
     return out

@@ -1,0 +1,106 @@
+"""Re-score finished runs with today's evaluation, without tracking them again.
+
+When the scoring changes (a ground-truth skeleton's mapping to our points, the oracle), the
+runs under ``multirun/`` keep the figures they were written with. This reads each run's
+motion.npz (the poses and shape it produced) and the data of its stored configuration, and
+rewrites the accuracy part of its metrics.json (:func:`mocap.eval.run_metrics.accuracy_metrics`);
+speed, effort and initialisation figures are kept. The figures it replaces are kept under
+``rescored.previous``. The recording keeps the metrics it was written with.
+
+    python experiments/rescore.py multirun/mismatch           # every run below a folder
+    python experiments/rescore.py outputs/track/<run> --dry-run
+    python experiments/ablate.py multirun/mismatch            # the tables from the new figures
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
+
+from mocap.eval.run_metrics import accuracy_metrics
+from mocap.export.motion import load_motion
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "experiments"))
+from _harness import write_json  # noqa: E402
+
+SUMMARY = ("mpjpe_mm", "frames_lost", "pcp")
+
+
+def run_dirs(targets: list[Path]) -> list[Path]:
+    out = []
+    for t in targets:
+        if not t.exists():
+            raise FileNotFoundError(f"{t}: no such run directory")
+        found = [t] if (t / "metrics.json").is_file() else sorted(p.parent for p in t.rglob("metrics.json"))
+        out += [d for d in found if (d / "motion.npz").is_file()]
+    return list(dict.fromkeys(out))
+
+
+def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]:
+    """(old, new) accuracy figures of one run; metrics.json rewritten unless ``dry_run``."""
+    metrics = json.loads((run / "metrics.json").read_text())
+    if "config" not in metrics:
+        raise ValueError(f"{run}: metrics.json holds no config (not a track.py run)")
+    cfg = OmegaConf.create(metrics["config"])
+    body = instantiate(cfg.body)
+    seq = instantiate(cfg.data, _partial_=True)(body=body)
+    if seq.gt is None:
+        raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
+    motion = load_motion(run)
+    F = motion.num_frames
+    if motion.chi.shape[1] != body.num_dofs:
+        raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
+    new = accuracy_metrics(body, seq, motion.chi, motion.alpha[-1])
+    old = {k: metrics[k] for k in new if k in metrics}
+    if not dry_run:
+        previous = {k: old[k] for k in SUMMARY if k in old}
+        for block in ("mismatch", "oracle"):
+            if block in old:
+                previous[block] = {k: v for k, v in old[block].items() if k != "offsets_mm"}
+        metrics.update(new)
+        metrics["rescored"] = {"by": version, "frames": F, "previous": previous}
+        write_json(run / "metrics.json", metrics)
+    return old, new
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("targets", nargs="+", type=Path, help="run directories or folders holding them")
+    p.add_argument("--dry-run", action="store_true", help="print the new figures, write nothing")
+    args = p.parse_args(argv)
+    try:
+        runs = run_dirs(args.targets)
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if not runs:
+        print("error: no run directory with metrics.json and motion.npz found", file=sys.stderr)
+        return 2
+    version = subprocess.run(["git", "-C", str(REPO), "describe", "--always", "--dirty"],
+                             capture_output=True, text=True).stdout.strip() or "unknown"
+    failed = 0
+    for i, run in enumerate(runs, 1):
+        try:
+            old, new = rescore(run, version, args.dry_run)
+        except (ValueError, FileNotFoundError) as exc:
+            print(f"[{i}/{len(runs)}] {run}: skipped: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        line = (f"[{i}/{len(runs)}] {run}: MPJPE {old.get('mpjpe_mm', float('nan')):.1f} -> "
+                f"{new['mpjpe_mm']:.1f} mm")
+        if "oracle" in new:
+            line += (f", oracle {old.get('oracle', {}).get('raw_mm', float('nan')):.1f} -> "
+                     f"{new['oracle']['raw_mm']:.1f} mm")
+        print(line, flush=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
