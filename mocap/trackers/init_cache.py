@@ -4,7 +4,8 @@ Initialising from silhouettes (:mod:`mocap.trackers.initialization`) costs tens 
 is the same computation for every silhouette tracker of a comparison: the same body, frame,
 rig, settings and random state give the same result. ``initial_estimate(..., cache=DIR)``
 keys a result by exactly those (a SHA-1 of the body's name and DOFs, the frame's masks, the
-calibration, the tracker's ``init_settings`` and the state of its ``init_rng``; a tracker
+calibration, the tracker's ``init_settings``, the state of its ``init_rng`` and the
+initialiser's ``INITIALIZER_VERSION``, raised when its algorithm changes; a tracker
 without ``init_settings``, such as the marker tracker, is never cached), stores it in
 ``DIR/<key>.npz`` (written atomically) and reuses it; on a hit the random state is advanced to
 where the computation would have left it, so tracking continues identically. Parallel runs
@@ -29,6 +30,7 @@ import numpy as np
 
 from mocap.cameras.calibration_io import rig_to_dict
 from mocap.trackers.base import Frame
+from mocap.trackers.initialization import INITIALIZER_VERSION
 
 
 def _key(tracker, frame: Frame) -> str:
@@ -38,6 +40,7 @@ def _key(tracker, frame: Frame) -> str:
     h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
     h.update(json.dumps(rig_to_dict(tracker.rig), sort_keys=True, default=str).encode())
     h.update(repr(tracker.init_settings).encode())
+    h.update(f"initializer-v{INITIALIZER_VERSION}".encode())
     rng = getattr(tracker, "init_rng", None)
     h.update(json.dumps(rng.bit_generator.state if rng is not None else None, sort_keys=True,
                         default=str).encode())

@@ -12,7 +12,10 @@ No ground truth is used. Starting from the mean body:
    and the ``keep`` best go on;
 4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (annealed search,
    local optimisation) and the shape coefficients (the first ``shape_components``, annealed
-   search on E_S with the pose held fixed); the hypothesis of lowest fine E_S wins.
+   search on E_S with the joint angles held fixed and, with ``shape_translate``, the body's
+   position searched with them: a taller body on the same root would push its feet through
+   the floor, so without it the search prefers a body of the mean height); the hypothesis of
+   lowest fine E_S wins.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative).
 """
@@ -24,13 +27,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.body.model import BodyModel
-from mocap.body.twists import se3_log
+from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import Rig, pixel_rays, project
 from mocap.energy.silhouette import SilhouetteEnergy, chamfer_energy, silhouette_target
 from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
 from mocap.render import get_rasterizer
 from mocap.trackers.apf import APFSettings, run_apf
+
+#: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
+#: inputs and settings: part of the initialisation cache's key (:mod:`mocap.trackers.init_cache`)
+INITIALIZER_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -49,6 +56,7 @@ class InitSettings:
     keep: int = 2                 # hypotheses taken through the shape/pose rounds
     select_resolution: int = 512  # E_S resolution that ranks hypotheses (px, longest side)
     partitioned: bool = True      # pose search torso first, then limb by limb, then all DOFs
+    shape_translate: float = 0.2  # the shape search also shifts the body by up to this (m); 0: off
 
 
 def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -64,6 +72,15 @@ def root_twist(yaw: float, x: float, y: float) -> np.ndarray:
     T[:2, :2] = [[c, -s], [s, c]]
     T[:2, 3] = [x, y]
     return se3_log(T)
+
+
+def shifted(chi: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """The pose chi (D,) with its body moved by ``shift`` (3,) world metres."""
+    T = se3_exp(np.asarray(chi[:6], np.float64))
+    T[:3, 3] += shift
+    out = np.array(chi, np.float64)
+    out[:6] = se3_log(T)
+    return out
 
 
 def mirror_map(body: BodyModel) -> tuple[np.ndarray, np.ndarray]:
@@ -122,16 +139,21 @@ def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.n
     return np.clip(out, limits[:, 0], limits[:, 1])
 
 
-def shape_energy(body: BodyModel, rig: Rig, chi: np.ndarray, target, components: int):
-    """E_S as a function of the first ``components`` shape coefficients, pose fixed."""
+def shape_energy(body: BodyModel, rig: Rig, chi: np.ndarray, target, components: int,
+                 translate: bool = False):
+    """E_S as a function of the first ``components`` shape coefficients (P, components), pose
+    fixed; with ``translate``, of (P, components + 3): three more coordinates shift the posed
+    body (world metres, :func:`shifted`)."""
     raster = get_rasterizer(body.faces, body.num_vertices)
     h, w = target.size
     K = body.num_shape
 
     def energy(a: np.ndarray) -> np.ndarray:
         alpha = np.zeros((len(a), K))
-        alpha[:, :components] = a
+        alpha[:, :components] = a[:, :components]
         verts = body.pose(np.repeat(chi[None], len(a), axis=0), alpha).vertices
+        if translate:
+            verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
         px, depth = project(rig, verts, return_depth=True)
         masks = raster(px, h, w, depth, near=0.05)
         return np.nanmean(chamfer_energy(masks, target)[:, target.valid], axis=1)
@@ -223,21 +245,36 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
                                "energy": fine_energy(alpha, v), "chi": v})
     hypotheses.sort(key=lambda d: d["energy"])
     kept = hypotheses[:max(1, settings.keep)]
-    shape_std = np.full(settings.shape_components, 0.8)
-    shape_limits = np.tile([-3.0, 3.0], (settings.shape_components, 1))
+    C, move = settings.shape_components, float(settings.shape_translate)
+    shape_std = np.full(C, 0.8)
+    shape_limits = np.tile([-3.0, 3.0], (C, 1))
+    # the body's position searched with its shape (std a third of the range)
+    move_std = np.r_[shape_std, np.full(3, move / 3)]
+    move_limits = np.vstack([shape_limits, np.tile([-move, move], (3, 1))])
+    shape_apf = APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
+                            diffusion=0.7, shrink=0.9)
     finals = []
     for hyp in kept:
         chi, a = hyp["chi"], alpha.copy()
         for r in range(settings.rounds):
             # 4a. pose: annealed search on E_S, then local optimisation on the contours
             chi = refine_pose(a, chi, std * (0.5 ** (r + 1)))
-            # 4b. shape: annealed search over the first components, pose fixed
-            energy = shape_energy(body, small, chi, target, settings.shape_components)
-            c, _ = run_apf(energy, a[:settings.shape_components], shape_std * (0.6**r), shape_limits,
-                           APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
-                                       diffusion=0.7, shrink=0.9), rng)
+            # 4b. shape: annealed search over the first components, pose fixed; with
+            # shape_translate also one that moves the body, the lower E_S of the two kept
+            # (the larger search loses a little where the mean height was right)
+            energy = shape_energy(body, small, chi, target, C, translate=True)
+            c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
+                           shape_std * (0.6**r), shape_limits, shape_apf, rng)
+            c = np.r_[c, np.zeros(3)]
+            if move > 0:
+                m, _ = run_apf(energy, np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
+                               shape_apf, rng)
+                if energy(m[None])[0] < energy(c[None])[0]:
+                    c = m
+                hyp.setdefault("shape_shift_m", []).append([round(float(x), 4) for x in c[C:]])
             a = a.copy()
-            a[:settings.shape_components] = c
+            a[:C] = c[:C]
+            chi = shifted(chi, c[C:]) if move > 0 else chi
         chi = local(a, chi)
         hyp["final_energy"] = fine_energy(a, chi)
         finals.append((hyp["final_energy"], chi, a))

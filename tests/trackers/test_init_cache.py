@@ -26,7 +26,7 @@ class Counting:
         return chi, np.zeros(self.body.num_shape)
 
 
-def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path):
+def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path, monkeypatch):
     body, rig = load_body("paper22"), rig_from_config("ring4_small")
     masks = np.zeros((len(rig.names), 8, 8), bool)
     masks[:, 2:5, 3:6] = True
@@ -48,6 +48,13 @@ def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path
     initial_estimate(e, frame, tmp_path)
     assert (c.calls, d.calls, e.calls) == (1, 1, 1)
     assert len(list(tmp_path.glob("*.npz"))) == 4 and not list(tmp_path.glob(".*tmp*"))
+    # a changed initialiser (its version raised): computed anew, not served from the cache
+    import mocap.trackers.init_cache as init_cache
+
+    monkeypatch.setattr(init_cache, "INITIALIZER_VERSION", init_cache.INITIALIZER_VERSION + 1)
+    f = Counting(body, rig)
+    initial_estimate(f, frame, tmp_path)
+    assert f.calls == 1 and len(list(tmp_path.glob("*.npz"))) == 5
 
 
 def test_without_a_cache_nothing_is_written(tmp_path, monkeypatch):
