@@ -120,12 +120,12 @@ def run_tracking(cfg: DictConfig, wrap: Wrap | None = None, extra: Extra | None 
         recording_seconds[0] += time.perf_counter() - t
         bar.update(1)
 
+    threads = resolve_threads(cfg.get("threads", "auto"), parallel_jobs())
     t0 = time.perf_counter()
     try:
         with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
             result = track_sequence(stepped, seq, init, alpha, F,
-                                    on_frame=lambda f, e, s: record(f, e, s, bar),
-                                    threads=resolve_threads(cfg.get("threads", "auto"), parallel_jobs()))
+                                    on_frame=lambda f, e, s: record(f, e, s, bar), threads=threads)
         wall = time.perf_counter() - t0
         tracking_seconds = float(np.sum(result.seconds[1:]))
         metrics = {
@@ -133,6 +133,9 @@ def run_tracking(cfg: DictConfig, wrap: Wrap | None = None, extra: Extra | None 
             **run_metrics(body, seq, result.estimates, result.seconds),
             **search_budget(tracker),
             **({"init": init_info} if init_info else {}),
+            # the numeric thread budget the run had: results depend on it at rounding level, and
+            # a search can turn rounding into another track (rerun with threads=<this>)
+            "threads": threads,
             "wall_seconds": wall, "tracking_seconds": tracking_seconds,
             "recording_seconds": recording_seconds[0],
             "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,

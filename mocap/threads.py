@@ -2,9 +2,13 @@
 
 numpy's OpenBLAS starts one thread per core in every process; a Hydra joblib sweep runs one
 process per core, so on 2 cores 2 processes x 2 BLAS threads fight over 2 cores (measured:
-``apf_prior`` 2.7x and ``local`` 7.8x slower than with one BLAS thread, same results). Every
-tracker therefore runs inside :func:`thread_budget`, with ``threads: auto`` = cores divided by
-the number of jobs running in parallel (1 in a single run).
+``apf_prior`` 2.7x and ``local`` 7.8x slower than with one BLAS thread). Every tracker therefore
+runs inside :func:`thread_budget`, with ``threads: auto`` = cores divided by the number of jobs
+running in parallel (1 in a single run). Results depend on the budget at rounding level (BLAS
+and parallel reductions sum in another order), and the hybrid's annealed search can turn that
+into another track: on the noisy mismatch walk, seed 0, one thread gave 78.5 mm and two threads
+60.6 mm from the same start. ``experiments/track.py`` records the budget in metrics.json
+(``threads``); a run is reproduced with the same ``threads=``.
 """
 
 from __future__ import annotations

@@ -51,6 +51,7 @@ def test_each_tracker_runs_two_frames_and_writes_metrics(tracker, tmp_path):
     assert 15 < m["per_frame_mm"][0] < 40, m["per_frame_mm"]
     assert m["per_frame_mm"][1] < 50 and m["mpjpe_mm"] < 45, m["per_frame_mm"]
     assert m["pcp"] == 1.0
+    assert isinstance(m["threads"], int) and m["threads"] >= 1       # the budget, to reproduce it
     if evals is not None:
         assert m["energy_evals_per_frame"] == evals
 
