@@ -27,6 +27,13 @@ from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.local_tracker import LocalTracker
 
 
+def restart_fraction(value: float) -> float:
+    """A share of the first layer to restart, checked to lie in [0, 1]."""
+    if not 0.0 <= float(value) <= 1.0:
+        raise ValueError(f"restart fraction must be in [0, 1], got {value}")
+    return float(value)
+
+
 class RestartFirstLayer:
     """The APF's diffusion (:func:`~mocap.trackers.anneal.perturb`), except on its first call
     (the first layer) a share ``fraction`` of the particles draw their free joint angles
@@ -34,9 +41,7 @@ class RestartFirstLayer:
     Gaussian of a few degrees around it cannot reach a forearm folded the wrong way."""
 
     def __init__(self, fraction: float, free: np.ndarray):
-        if not 0.0 <= fraction <= 1.0:
-            raise ValueError(f"restart fraction must be in [0, 1], got {fraction}")
-        self.fraction, self.free, self.first = float(fraction), np.asarray(free, bool), True
+        self.fraction, self.free, self.first = restart_fraction(fraction), np.asarray(free, bool), True
 
     def __call__(self, x, std, limits, rng, root_point=None):
         out = perturb(x, std, limits, rng, root_point)
@@ -59,8 +64,7 @@ class HybridTracker(LocalTracker):
         self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
         self.scale, self.std0 = scale, diffusion_std(body, *init_std)
         self.refine_iterations, self.keep_particles = refine_iterations, keep_particles
-        self.restart = float(restart)
-        RestartFirstLayer(self.restart, np.zeros(body.num_dofs, bool))     # checks the range
+        self.restart = restart_fraction(restart)
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         super().initialize(chi, alpha)

@@ -172,6 +172,12 @@ def test_restart_first_layer_draws_free_joint_angles_uniformly_once():
         RestartFirstLayer(1.5, free)
 
 
+def test_a_restart_fraction_outside_0_1_fails_when_the_tracker_is_made(body, seq):
+    with pytest.raises(ValueError, match="restart fraction"):
+        make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                     apf={**APF, "restart": -0.1})
+
+
 def test_unexplained_limit_follows_each_chains_recent_level(body, seq6):
     """A cast shadow at the feet (the silhouette-noise model) leaves observed pixels no pose
     explains, in every frame: a fixed limit flags the legs at every check; the limit that
