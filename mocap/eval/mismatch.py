@@ -164,7 +164,7 @@ class _PointFunction:
         from mocap.body.catalogue import landmarks_with, rest_point_basis
 
         self.body = body
-        marks = landmarks_with(body, [n for n in names if n not in body.joint_names])
+        marks = landmarks_with(body, names)          # the catalogue's points among names
         self.is_joint = np.array([n in body.joint_names for n in names])
         self.index = np.array([body.joint_index(n) if j else marks.names.index(n)
                                for n, j in zip(names, self.is_joint, strict=True)], int)

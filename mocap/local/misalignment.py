@@ -106,8 +106,7 @@ class MisalignmentDetector:
         if unexplained_window < 0:
             raise ValueError(f"unexplained_window must be >= 0, got {unexplained_window}")
         self.unexplained = float(unexplained)
-        self.recent: deque = deque(maxlen=int(unexplained_window) or None)   # past shares (K,)
-        self.window = int(unexplained_window)
+        self.recent: deque = deque(maxlen=int(unexplained_window))   # past shares (K,); 0 keeps none
         self.chains = limb_chains(body) if unexplained > 0 else []
         self._raster = get_rasterizer(body.faces, body.num_vertices) if unexplained > 0 else None
         self._chain_vertex = np.full(body.num_vertices, -1)       # chain index of each vertex
@@ -182,7 +181,7 @@ class MisalignmentDetector:
         for (j, limbs), lim in zip(self.chains, limit, strict=True):
             if share[j] > lim:
                 flagged[limbs] = True
-        if self.chains and self.window:
+        if self.chains:
             self.recent.append(np.array([share[j] for j, _ in self.chains]))
         names = [self.body.joint_names[j] for j in np.flatnonzero(flagged)]
         chain_names = [self.body.joint_names[j] for j, _ in self.chains]

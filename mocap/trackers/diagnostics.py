@@ -67,6 +67,13 @@ class Misalignment:
     unexplained: Mapping[str, float] = field(default_factory=dict)
     unexplained_limit: Mapping[str, float] = field(default_factory=dict)
 
+    @classmethod
+    def of(cls, check, **decision) -> Misalignment:
+        """The report of a :class:`mocap.local.misalignment.LimbCheck`, plus the tracker's
+        ``decision`` fields (apf_called, ...)."""
+        return cls(tuple(check.names), dict(check.errors), unexplained=dict(check.unexplained),
+                   unexplained_limit=dict(check.unexplained_limit), **decision)
+
 
 @dataclass(frozen=True)
 class LandmarkReport:

@@ -80,9 +80,7 @@ class HybridTracker(LocalTracker):
         verts = self.shaped.pose(chi).vertices[0]
         check = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
-        decision = Misalignment(tuple(check.names), dict(check.errors), apf_called=bool(check.names),
-                                unexplained=dict(check.unexplained),
-                                unexplained_limit=dict(check.unexplained_limit))
+        decision = Misalignment.of(check, apf_called=bool(check.names))
         report = StepDiagnostics(local=local, misalignment=decision)
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
         if check.names:

@@ -100,7 +100,5 @@ class LocalTracker(SilhouetteInitialisation):
             self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]
         return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=StepDiagnostics(
-            local=local, misalignment=Misalignment(tuple(limbs.names), dict(limbs.errors),
-                                                  unexplained=dict(limbs.unexplained),
-                                                  unexplained_limit=dict(limbs.unexplained_limit)),
+            local=local, misalignment=Misalignment.of(limbs),
             timings={"local": t1 - t0, "misalignment": t2 - t1}))
