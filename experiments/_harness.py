@@ -106,11 +106,14 @@ def run_tracking(cfg: DictConfig, wrap: Wrap | None = None, extra: Extra | None 
     metadata = run_metadata(config_yaml, REPO, int(cfg.seed), tracker=tracker.name, data=seq.name)
     run_id = metadata.get("run_id", "")
     sink.start(RunInfo(config_yaml, metadata), body, seq)
-    shaped = body.shaped(alpha)
+    shapes = {"held": body.shaped(alpha)}
     recording_seconds = [0.0]
 
     def record(f, est, step_seconds, bar):
         t = time.perf_counter()
+        if not np.array_equal(shapes["held"].alpha, est.alpha):     # refined while tracking
+            shapes["held"] = body.shaped(est.alpha)
+        shaped = shapes["held"]
         out = shaped.pose(est.chi)
         truth = err = None
         if scorer is not None:
@@ -141,7 +144,7 @@ def run_tracking(cfg: DictConfig, wrap: Wrap | None = None, extra: Extra | None 
             "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,
             "config": OmegaConf.to_container(cfg, resolve=True),
         }
-        metrics["quality"] = quality_flags(body, alpha, result.estimates,
+        metrics["quality"] = quality_flags(body, result.estimates[-1].alpha, result.estimates,
                                            float(np.linalg.norm(seq.rig.sizes, axis=1).max()),
                                            extra_flags=getattr(tracker, "start_up_flags", ()))
         if extra is not None:

@@ -57,7 +57,7 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
     F = motion.num_frames
     if motion.chi.shape[1] != body.num_dofs:
         raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
-    new = accuracy_metrics(body, seq, motion.chi, motion.alpha[-1])
+    new = accuracy_metrics(body, seq, motion.chi, motion.alpha)
     old = {k: metrics[k] for k in new if k in metrics}
     if not dry_run:
         previous = {k: old[k] for k in SUMMARY if k in old}

@@ -231,12 +231,25 @@ class NameScorer:
         return estimate_points(self.body.joint_names, shaped.joints(chis), self.landmarks.names,
                                self.landmarks.positions(shaped, chis))
 
+    def points_by_shape(self, alphas: np.ndarray, chis: np.ndarray) -> dict:
+        """:meth:`points` of poses chis (F, D) with shapes alphas (K,) or one per frame (F, K)."""
+        from mocap.eval.estimates import per_shape
+
+        J = self.body.num_joints
+        both = per_shape(self.body, alphas, chis, lambda shaped, c: np.concatenate(
+            [shaped.joints(c), self.landmarks.positions(shaped, c)], axis=1))
+        return estimate_points(self.body.joint_names, both[:, :J], self.landmarks.names, both[:, J:])
+
     def metrics(self, shaped, chis: np.ndarray, start: int = 0) -> dict:
         """Metrics of poses chis (F, D) against ground-truth frames start..start+F-1."""
-        F = len(np.atleast_2d(chis))
+        return self.score(self.points(shaped, chis), start)
+
+    def score(self, points: dict, start: int = 0) -> dict:
+        """Metrics of named points (name -> (F, 3)) against ground-truth frames start..start+F-1."""
+        F = len(next(iter(points.values())))
         valid = None if self.gt.joint_valid is None else self.gt.joint_valid[start:start + F]
-        return score_by_name(self.points(shaped, chis), self.gt.joint_names,
-                             self.gt.joints[start:start + F], valid, **self.kwargs)
+        return score_by_name(points, self.gt.joint_names, self.gt.joints[start:start + F], valid,
+                             **self.kwargs)
 
     def truth_in_body_order(self, f: int) -> np.ndarray | None:
         """Ground-truth joints of frame f in the body's joint order (None unless the ground truth

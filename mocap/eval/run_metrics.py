@@ -8,7 +8,7 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
-from mocap.eval.estimates import FrameEstimate
+from mocap.eval.estimates import FrameEstimate, per_shape
 from mocap.eval.metrics import mmta_mmtp
 from mocap.eval.mismatch import LOST_MM, fit_oracle, mismatch_metrics
 
@@ -50,7 +50,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     tracked = seconds[1:]
     out: dict = {"frames": F}
     if seq.gt is not None:
-        out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]), estimates[-1].alpha))
+        out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]),
+                                    np.stack([e.alpha for e in estimates])))
     elif seq.detections is not None and len(seq.detections):
         from mocap.eval.keypoint_metrics import keypoint_run_metrics
 
@@ -65,25 +66,25 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
 
 
 def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray) -> dict:
-    """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,)
-    (frame 0: the initialisation): what a run is re-scored with when the evaluation changes
-    (``experiments/rescore.py``)."""
+    """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,),
+    or one shape per frame (F, K) (frame 0: the initialisation): what a run is re-scored with
+    when the evaluation changes (``experiments/rescore.py``)."""
     F = len(chis)
     out: dict = {}
-    shaped = body.shaped(alpha)
     scorer = NameScorer(body, seq.gt)
-    scores = scorer.metrics(shaped, chis)     # joints matched by name
+    points = scorer.points_by_shape(alpha, chis)
+    scores = scorer.score(points)     # joints matched by name
     out.update({k: v for k, v in scores.items() if k not in ("scored", "unscored")})
     out["frames_lost"] = int(np.sum(np.asarray(scores["per_frame_mm"][1:]) > LOST_MM))
     if seq.gt.chi is None and {"l_hip", "r_hip"} <= set(scorer.mapping.values()):
         # data our model did not generate: errors fair under mismatch, and the floor
-        out["mismatch"] = mismatch_metrics(scorer.points(shaped, chis), seq.gt.joint_names,
+        out["mismatch"] = mismatch_metrics(points, seq.gt.joint_names,
                                            seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
         out["oracle"] = oracle_metrics(body, seq, F)
     if scores["unscored"]:
         out["unscored_joints"] = scores["unscored"]
     landmarks = LandmarkSet(body)
     if seq.gt.markers is not None and tuple(seq.gt.marker_names) == landmarks.names:
-        est_markers = landmarks.positions(shaped, chis)
+        est_markers = per_shape(body, alpha, chis, landmarks.positions)
         out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
     return out

@@ -3,8 +3,9 @@
 :class:`StepDiagnostics` is ``Estimate.diagnostics``: energies per term, the annealed
 search (:class:`mocap.trackers.anneal.AnnealTrace`, one :class:`LayerTrace` per layer), the
 local optimisation (:class:`LocalTrace`), decisions (:class:`Misalignment`: misaligned
-limbs, APF called), the marker tracker's landmarks (:class:`LandmarkReport`), a failure
-injected by an experiment (:class:`Injection`), timings.
+limbs, APF called), a shape refinement (:class:`ShapeUpdate`), the marker tracker's
+landmarks (:class:`LandmarkReport`), a failure injected by an experiment
+(:class:`Injection`), timings.
 
 Consumers (the recording sink, the run metrics) read the typed fields; :meth:`StepDiagnostics.scalars`
 flattens every numeric field of every report into ``{"group/name": value}``, so a field a
@@ -109,6 +110,19 @@ class Injection:
 
 
 @dataclass(frozen=True)
+class ShapeUpdate:
+    """A shape refinement while tracking (:func:`mocap.trackers.shape_search.refine_shape`):
+    E_S of the keyframes with the shape held so far and with the one found, whether it was
+    kept, the shared shift that came with it (m), and the keyframes' indices."""
+
+    energy_before: float
+    energy_after: float
+    accepted: bool
+    shift_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    keyframes: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
 class StepDiagnostics:
     """Everything one step reports. ``initial``: the estimate is the initial pose."""
 
@@ -122,6 +136,7 @@ class StepDiagnostics:
     timings: Mapping[str, float] = field(default_factory=dict)
     ignored_views: tuple[str, ...] = ()
     injection: Injection | None = None
+    shape: ShapeUpdate | None = None
     initial: bool = False
 
     @property
@@ -196,6 +211,8 @@ class StepDiagnostics:
             d["refinement"] = dataclasses.asdict(self.marker_refine)
         if self.injection is not None:
             d["injection"] = dataclasses.asdict(self.injection)
+        if self.shape is not None:
+            d["shape_update"] = dataclasses.asdict(self.shape)
         return d
 
     # read-only mapping access to the old dictionary form

@@ -66,8 +66,8 @@ class HybridTracker(LocalTracker):
         self.refine_iterations, self.keep_particles = refine_iterations, keep_particles
         self.restart = restart_fraction(restart)
 
-    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
-        super().initialize(chi, alpha)
+    def set_shape(self, alpha: np.ndarray) -> None:
+        super().set_shape(alpha)
         self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale)
 
     def step(self, frame: Frame) -> Estimate:
@@ -111,6 +111,12 @@ class HybridTracker(LocalTracker):
             timings.update({"apf": t3 - t2, "refine": time.perf_counter() - t3})
             if accepted:
                 verts = self.shaped.pose(chi).vertices[0]
+        t4 = time.perf_counter()
+        chi, shape = self.refine_shape(frame, chi)
+        if shape is not None:
+            timings["shape"] = time.perf_counter() - t4
+            verts = self.shaped.pose(chi).vertices[0]
+            report = dataclasses.replace(report, shape=shape)
         if self.sift is not None and frame.images is not None:
             self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]

@@ -27,13 +27,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.body.model import BodyModel
-from mocap.body.twists import se3_exp, se3_log
-from mocap.cameras import Rig, pixel_rays, project
-from mocap.energy.silhouette import SilhouetteEnergy, chamfer_energy, silhouette_target
+from mocap.body.twists import se3_log
+from mocap.cameras import Rig, pixel_rays
+from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
-from mocap.render import get_rasterizer
 from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.shape_search import shape_energy, shifted  # noqa: F401  (shifted re-exported)
 
 #: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
 #: inputs and settings: part of the initialisation cache's key (:mod:`mocap.trackers.init_cache`)
@@ -72,15 +72,6 @@ def root_twist(yaw: float, x: float, y: float) -> np.ndarray:
     T[:2, :2] = [[c, -s], [s, c]]
     T[:2, 3] = [x, y]
     return se3_log(T)
-
-
-def shifted(chi: np.ndarray, shift: np.ndarray) -> np.ndarray:
-    """The pose chi (D,) with its body moved by ``shift`` (3,) world metres."""
-    T = se3_exp(np.asarray(chi[:6], np.float64))
-    T[:3, 3] += shift
-    out = np.array(chi, np.float64)
-    out[:6] = se3_log(T)
-    return out
 
 
 def mirror_map(body: BodyModel) -> tuple[np.ndarray, np.ndarray]:
@@ -137,28 +128,6 @@ def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.n
     out = np.asarray(chi, np.float64).copy()
     out[6:] = sign * chi[6:][perm]
     return np.clip(out, limits[:, 0], limits[:, 1])
-
-
-def shape_energy(body: BodyModel, rig: Rig, chi: np.ndarray, target, components: int,
-                 translate: bool = False):
-    """E_S as a function of the first ``components`` shape coefficients (P, components), pose
-    fixed; with ``translate``, of (P, components + 3): three more coordinates shift the posed
-    body (world metres, :func:`shifted`)."""
-    raster = get_rasterizer(body.faces, body.num_vertices)
-    h, w = target.size
-    K = body.num_shape
-
-    def energy(a: np.ndarray) -> np.ndarray:
-        alpha = np.zeros((len(a), K))
-        alpha[:, :components] = a[:, :components]
-        verts = body.pose(np.repeat(chi[None], len(a), axis=0), alpha).vertices
-        if translate:
-            verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
-        px, depth = project(rig, verts, return_depth=True)
-        masks = raster(px, h, w, depth, near=0.05)
-        return np.nanmean(chamfer_energy(masks, target)[:, target.valid], axis=1)
-
-    return energy
 
 
 def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rng: np.random.Generator,

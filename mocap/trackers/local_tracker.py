@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Mapping
 
 import numpy as np
@@ -17,8 +18,9 @@ from mocap.local.optimize import optimize_pose
 from mocap.local.sift import SiftTracker
 from mocap.local.solver import PointLines
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.diagnostics import LocalTrace, Misalignment, StepDiagnostics
+from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
+from mocap.trackers.shape_search import ShapeRefinement, refine_shape, shifted
 
 
 def merge(parts: list[PointLines]) -> PointLines:
@@ -31,15 +33,20 @@ def merge(parts: list[PointLines]) -> PointLines:
 
 
 class LocalTracker(SilhouetteInitialisation):
-    """Local optimisation only: fast, accurate while the motion is slow, cannot recover."""
+    """Local optimisation only: fast, accurate while the motion is slow, cannot recover.
+
+    ``shape``: options of :class:`mocap.trackers.shape_search.ShapeRefinement` (off by
+    default): every ``every`` frames the shape is searched again on recent keyframes, their
+    poses held (the estimate of that frame onwards carries the new shape)."""
 
     def __init__(self, body: BodyModel, rig: Rig, iterations: int = 10, tolerance: float = 1e-4,
                  damping: float = 1e-3, prediction_damping: float = 1.0,
                  contour: Mapping | None = None, sift: Mapping | None = None,
                  misalignment: Mapping | None = None, name: str = "local",
                  rng: np.random.Generator | None = None, initialization: Mapping | None = None,
-                 energy_tolerance: float = 0.0):
+                 energy_tolerance: float = 0.0, shape: Mapping | None = None):
         self.body, self.rig, self.name = body, rig, name
+        self.shape_settings = ShapeRefinement(**dict(shape or {}))
         self.init_rng = rng if rng is not None else np.random.default_rng(0)
         self.init_settings = InitSettings(**dict(initialization or {}))
         self.iterations, self.tolerance, self.damping = iterations, tolerance, damping
@@ -53,7 +60,7 @@ class LocalTracker(SilhouetteInitialisation):
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         chi = self.checked_pose(chi)
-        self.shaped = self.body.shaped(alpha)
+        self.set_shape(alpha)
         self.matcher = ContourMatcher(self.body, self.rig, **self.contour_cfg)
         sift = dict(self.sift_cfg)
         self.sift = SiftTracker(self.body, self.rig, **{k: v for k, v in sift.items() if k != "enabled"}) \
@@ -61,6 +68,40 @@ class LocalTracker(SilhouetteInitialisation):
         self.detector = MisalignmentDetector(self.body, self.rig, **self.misalignment_cfg)
         self.history = [chi]
         self.last_images = None
+        self.keyframes: deque = deque(maxlen=self.shape_settings.keyframes)   # (index, chi, masks)
+
+    def set_shape(self, alpha: np.ndarray) -> None:
+        """Track on with the shape ``alpha`` (K,)."""
+        self.shaped = self.body.shaped(alpha)
+
+    def refine_shape(self, frame: Frame, chi: np.ndarray) -> tuple[np.ndarray, ShapeUpdate | None]:
+        """Keep this frame as a keyframe when it falls on the stride and, every ``every`` frames,
+        search the shape on the keyframes (:func:`refine_shape`); returns this frame's pose (moved
+        by the shift that came with a kept shape) and the report (None: no search this frame)."""
+        s = self.shape_settings
+        if not s.every or frame.masks is None:
+            return chi, None
+        due = frame.index % s.every == 0
+        if frame.index % s.stride == 0 or due:
+            self.keyframes.append((frame.index, chi, frame.masks))
+        if not due or len(self.keyframes) < 2:
+            return chi, None
+        frames, chis, masks = zip(*self.keyframes, strict=True)
+        found = refine_shape(self.body, self.rig, self.shaped.alpha, np.stack(chis), list(masks), frames,
+                             s, self.shape_scale, self.init_rng)
+        if found.accepted:
+            self.set_shape(found.alpha)
+            chi = shifted(chi, found.shift)
+            self.history = [shifted(c, found.shift) for c in self.history]
+            self.keyframes = deque(((f, shifted(c, found.shift), m) for f, c, m in self.keyframes),
+                                   maxlen=s.keyframes)
+        return chi, ShapeUpdate(found.energy_before, found.energy_after, found.accepted,
+                                tuple(float(x) for x in found.shift), found.frames)
+
+    @property
+    def shape_scale(self) -> float:
+        """Silhouette scale of the shape search: 256 px on the longer image side."""
+        return min(1.0, 256 / float(np.max(self.rig.sizes)))
 
     def local_step(self, frame: Frame, start: np.ndarray,
                    free: np.ndarray | None = None) -> tuple[np.ndarray, LocalTrace]:
@@ -96,9 +137,13 @@ class LocalTracker(SilhouetteInitialisation):
         verts = self.shaped.pose(chi).vertices[0]
         limbs = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
+        chi, shape = self.refine_shape(frame, chi)
+        timings = {"local": t1 - t0, "misalignment": t2 - t1}
+        if shape is not None:
+            timings["shape"] = time.perf_counter() - t2
+            verts = self.shaped.pose(chi).vertices[0]
         if self.sift is not None and frame.images is not None:
             self.sift.remember(frame.images, verts.astype(np.float64))
         self.history = (self.history + [chi])[-3:]
         return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=StepDiagnostics(
-            local=local, misalignment=Misalignment.of(limbs),
-            timings={"local": t1 - t0, "misalignment": t2 - t1}))
+            local=local, misalignment=Misalignment.of(limbs), shape=shape, timings=timings))

@@ -11,7 +11,7 @@ from mocap.cameras import project, ring_rig
 from mocap.energy.silhouette import silhouette_target
 from mocap.render import get_rasterizer
 from mocap.trackers.apf import APFSettings, run_apf
-from mocap.trackers.initialization import shape_energy, shifted
+from mocap.trackers.shape_search import shape_energy, shifted
 
 C = 8
 

@@ -1,0 +1,143 @@
+"""The body's shape searched on silhouettes with its poses held: the initialiser's shape step
+(one frame, :mod:`mocap.trackers.initialization`) and the trackers' shape refinement while
+tracking (several frames, :func:`refine_shape`).
+
+One frame's silhouettes hardly tell a long thigh from a bent knee; frames that see the body
+in different poses do. :func:`refine_shape` therefore scores a shape by the silhouette energy
+E_S averaged over keyframes, each posed as tracked, and keeps it only where that is lower
+than the current shape's at a finer resolution than the search's (so a shape fitted to the
+search's coarse masks is not taken for a better one).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.body.model import BodyModel
+from mocap.body.twists import se3_exp, se3_log
+from mocap.cameras import Rig, project
+from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget, chamfer_energy, silhouette_target
+from mocap.render import get_rasterizer
+from mocap.trackers.apf import APFSettings, run_apf
+
+
+def shifted(chi: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """The pose chi (D,) with its body moved by ``shift`` (3,) world metres."""
+    T = se3_exp(np.asarray(chi[:6], np.float64))
+    T[:3, 3] += shift
+    out = np.array(chi, np.float64)
+    out[:6] = se3_log(T)
+    return out
+
+
+def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, components: int,
+                 translate: bool = False, alpha: np.ndarray | None = None):
+    """E_S as a function of the first ``components`` shape coefficients: a function of
+    (P, components) -> (P,), the mean over frames of E_S with the poses chis (N, D) (or one
+    pose (D,)) held, against ``targets`` (one :class:`SilhouetteTarget` per pose, at ``rig``'s
+    resolution). The other coefficients are those of ``alpha`` (None: zeros). With
+    ``translate``, (P, components + 3): three more coordinates shift every posed body by the
+    same world offset (metres; a taller body on the same root would push its feet through
+    the floor)."""
+    chis = np.atleast_2d(np.asarray(chis, np.float64))
+    if isinstance(targets, SilhouetteTarget):
+        targets = [targets]
+    if len(targets) != len(chis):
+        raise ValueError(f"{len(chis)} poses for {len(targets)} silhouette targets")
+    raster = get_rasterizer(body.faces, body.num_vertices)
+    base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
+
+    def energy(a: np.ndarray) -> np.ndarray:
+        a = np.atleast_2d(a)
+        shapes = np.repeat(base[None], len(a), axis=0)
+        shapes[:, :components] = a[:, :components]
+        total = np.zeros(len(a))
+        for chi, target in zip(chis, targets, strict=True):
+            verts = body.pose(np.repeat(chi[None], len(a), axis=0), shapes).vertices
+            if translate:
+                verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
+            px, depth = project(rig, verts, return_depth=True)
+            h, w = target.size
+            masks = raster(px, h, w, depth, near=0.05)
+            total += np.nanmean(chamfer_energy(masks, target)[:, target.valid], axis=1)
+        return total / len(chis)
+
+    return energy
+
+
+@dataclass(frozen=True)
+class ShapeRefinement:
+    """Shape refinement while tracking. ``every``: frames between refinements (0: off);
+    the last ``keyframes`` frames, one every ``stride`` frames, are scored; ``components``:
+    shape coefficients searched; an annealed search of ``particles`` x ``layers`` with a
+    first-layer spread ``std`` (PCA units) per coefficient and ``shift`` (m) on the shared
+    3D offset; the result is kept when it lowers the keyframes' E_S at ``check_resolution``
+    px (longest image side) by more than ``min_gain`` (relative)."""
+
+    every: int = 0
+    keyframes: int = 6
+    stride: int = 3
+    components: int = 8
+    particles: int = 30
+    layers: int = 6
+    std: float = 0.3
+    shift: float = 0.02
+    check_resolution: int = 512
+    min_gain: float = 0.01
+
+    def __post_init__(self):
+        if self.every < 0 or self.keyframes < 1 or self.stride < 1 or self.components < 1:
+            raise ValueError(f"shape refinement: every >= 0, keyframes, stride, components >= 1: {self}")
+        if self.particles < 2 or self.layers < 1 or self.std <= 0 or self.shift < 0:
+            raise ValueError(f"shape refinement: particles >= 2, layers >= 1, std > 0, shift >= 0: {self}")
+
+
+@dataclass(frozen=True)
+class ShapeResult:
+    """One refinement: the shape (K,) and shift (3,) found, E_S of the keyframes at the check
+    resolution before and after, whether it was kept, and the frames it used."""
+
+    alpha: np.ndarray
+    shift: np.ndarray
+    energy_before: float
+    energy_after: float
+    accepted: bool
+    frames: tuple[int, ...]
+
+
+def refine_shape(body: BodyModel, rig: Rig, alpha: np.ndarray, chis: np.ndarray, masks: list[np.ndarray],
+                 frames: tuple[int, ...], settings: ShapeRefinement, scale: float,
+                 rng: np.random.Generator) -> ShapeResult:
+    """Search the first ``settings.components`` coefficients of ``alpha`` and a shared shift on
+    keyframes: poses chis (N, D), masks (N of (C, H, W) bool), at silhouette ``scale``;
+    frames: their indices (reported)."""
+    C = min(settings.components, body.num_shape)
+    alpha = np.asarray(alpha, np.float64)
+    names = tuple(rig.names)
+    coarse = [silhouette_target(m, scale, view_names=names) for m in masks]
+    energy = shape_energy(body, rig.scaled(scale), chis, coarse, C, translate=True, alpha=alpha)
+    x0 = np.r_[alpha[:C], np.zeros(3)]
+    std = np.r_[np.full(C, settings.std), np.full(3, max(settings.shift, 1e-6) / 2)]
+    limits = np.vstack([np.tile([-3.0, 3.0], (C, 1)), np.tile([-settings.shift, settings.shift], (3, 1))])
+    apf = APFSettings(particles=settings.particles, layers=settings.layers, diffusion=0.7, shrink=0.9)
+    x, _ = run_apf(energy, np.clip(x0, limits[:, 0], limits[:, 1]), std, limits, apf, rng)
+    new = alpha.copy()
+    new[:C] = x[:C]
+    shift = x[C:]
+    fine_scale = min(1.0, settings.check_resolution / float(np.max(rig.sizes)))
+    fine = [silhouette_target(m, fine_scale, view_names=names) for m in masks]
+
+    def check(a: np.ndarray, move: np.ndarray) -> float:
+        sil = SilhouetteEnergy(body.shaped(a), rig, fine_scale)
+        moved = np.stack([shifted(c, move) for c in chis])
+        return float(np.mean([sil(c[None], t)[0] for c, t in zip(moved, fine, strict=True)]))
+
+    before, after = check(alpha, np.zeros(3)), check(new, shift)
+    accepted = bool(after < before * (1.0 - settings.min_gain))
+    return ShapeResult(alpha=new if accepted else alpha, shift=shift if accepted else np.zeros(3),
+                       energy_before=before, energy_after=after, accepted=accepted,
+                       frames=tuple(int(f) for f in frames))
+
+
