@@ -14,7 +14,7 @@ from mocap.energy.prior import ParzenPrior, PosePrior, default_prior_path
 from mocap.energy.total import EnergyWeights
 from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import APFTracker
-from mocap.trackers.hybrid_tracker import HybridTracker
+from mocap.trackers.hybrid_tracker import HybridTracker, library_poses
 from mocap.trackers.local_tracker import LocalTracker
 
 
@@ -127,15 +127,22 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
                         keep_particles: bool = False, apf: Mapping | None = None,
                         local: Mapping | None = None, initialization: Mapping | None = None) -> HybridTracker:
     """The hybrid tracker: ``local`` holds :class:`LocalTracker`'s options, ``apf`` those of
-    its APF (as for :func:`make_apf_tracker`, plus refine_iterations and restart; default
-    :data:`HYBRID_APF`); the local tracker's misalignment check defaults to
-    :data:`HYBRID_MISALIGNMENT`. ``_target_`` and ``name`` keys of composed configs are ignored."""
+    its APF (as for :func:`make_apf_tracker`, plus refine_iterations, restart and
+    restart_from_library: the share of the restarted particles that take a pose of the pose
+    prior's training motions, mirrored or not; default :data:`HYBRID_APF`); the local
+    tracker's misalignment check defaults to :data:`HYBRID_MISALIGNMENT`. ``_target_`` and
+    ``name`` keys of composed configs are ignored."""
     a = merge(HYBRID_APF, {k: v for k, v in dict(apf or {}).items() if k not in ("_target_", "name")})
     loc = {k: v for k, v in dict(local or {}).items() if k not in ("_target_", "name", "keep_particles")}
     loc["misalignment"] = merge(HYBRID_MISALIGNMENT, dict(loc.get("misalignment") or {}))
-    weights, pose_prior = _energy(body, a.pop("energy", None), a.pop("prior", None))
+    prior = dict(a.pop("prior", None) or {})
+    weights, pose_prior = _energy(body, a.pop("energy", None), prior)
     scale = internal_scale(rig, a.pop("resolution", 256))
-    extra = {k: a.pop(k) for k in ("refine_iterations", "restart") if k in a}
+    extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library") if k in a}
+    if extra.get("restart_from_library"):
+        # the restarts' motion library: the pose prior's training poses, and their mirror images
+        lib = ParzenPrior.load(prior.get("prior_file") or default_prior_path(body.name))
+        extra["library"] = library_poses(body, lib.samples, lib.dof_names)
     init_std = tuple(a.pop("init_std"))
     settings = _search(a)
     if a:
