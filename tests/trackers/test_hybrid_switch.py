@@ -212,3 +212,45 @@ def test_unexplained_limit_follows_each_chains_recent_level(body, seq6):
     assert {"l_shoulder", "l_elbow", "l_wrist"} <= set(out.names) and not legs & set(out.names)
     with pytest.raises(ValueError, match="unexplained_window"):
         MisalignmentDetector(body, seq6.rig, unexplained=0.005, unexplained_window=-1)
+
+
+def test_restarted_particles_take_library_poses_on_the_free_angles():
+    """A share of the restarted particles takes the free angles of a library pose (+ noise);
+    angles the library lacks (NaN) keep their uniform draw; the others are uniform as before."""
+    from mocap.trackers.hybrid_tracker import RestartFirstLayer
+
+    D, P = 9, 400
+    limits = np.tile([-1.0, 1.0], (D, 1))
+    free = np.zeros(D, bool)
+    free[[7, 8]] = True
+    library = np.full((2, D), np.nan)
+    library[:, 7] = [0.5, -0.5]                  # DOF 8 unknown to the library
+    prop = RestartFirstLayer(0.5, free, library, from_library=0.5, library_std=0.01)
+    out = prop(np.zeros((P, D)), np.full(D, 1e-3), limits, np.random.default_rng(0))
+    n = P // 4                                   # half of the 200 restarted particles
+    assert np.all(np.abs(np.abs(out[:n, 7]) - 0.5) < 0.05)          # a library value each
+    assert {0.5, -0.5} == set(np.round(out[:n, 7], 1))              # both poses drawn
+    assert out[:n, 8].std() > 0.5                                    # unknown: uniform
+    assert out[n:P // 2, 7].std() > 0.5                              # the other restarts: uniform
+    assert np.all(np.abs(out[P // 2:]) < 0.01)                       # the rest: diffusion only
+
+
+def test_library_poses_hold_each_pose_and_its_mirror_image(body):
+    from mocap.trackers.hybrid_tracker import library_poses
+
+    names = ("l_shoulder_flex", "r_elbow_flex", "not_a_dof")
+    angles = np.array([[0.8, 1.2, 3.0]])
+    rows = library_poses(body, angles, names)
+    assert rows.shape == (2, body.num_dofs)
+    assert rows[0, body.dof_index("l_shoulder_flex")] == 0.8
+    assert rows[0, body.dof_index("r_elbow_flex")] == 1.2
+    assert np.isnan(rows[0, body.dof_index("r_shoulder_flex")]) and np.isnan(rows[0, :6]).all()
+    mirror = np.zeros(body.num_dofs)
+    mirror[np.isfinite(rows[1])] = rows[1][np.isfinite(rows[1])]
+    pose = np.zeros(body.num_dofs)
+    pose[np.isfinite(rows[0])] = rows[0][np.isfinite(rows[0])]
+    shaped = body.shaped()
+    j, m = shaped.joints(pose[None])[0], shaped.joints(mirror[None])[0]   # mirror: x -> -x, left <-> right
+    flip = [body.joint_names.index(("r_" if n.startswith("l_") else "l_") + n[2:])
+            if n[:2] in ("l_", "r_") else k for k, n in enumerate(body.joint_names)]
+    np.testing.assert_allclose(m[flip] * [-1, 1, 1], j, atol=2e-3)
