@@ -23,7 +23,7 @@ def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouett
     out = silhouette_floor.floor("mismatch_walk", rounds=1, keyframes=2, frames=3, seed=0)
     oracle, shape, poses = out["stages"]
     body = mocap.load_body("paper22")
-    gt = folder_sequence(WALK, body=body).gt
+    gt = folder_sequence(body=body, path=str(WALK), images=False).gt
     truth = fit_oracle(body, gt.joint_names, gt.joints[:3], None, gt.skeleton or None)
     assert oracle["raw_mm"] == pytest.approx(truth.metrics["raw_mm"], rel=1e-6)
     # a pose is kept only where it lowers E_S
