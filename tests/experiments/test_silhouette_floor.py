@@ -25,7 +25,7 @@ def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouett
     body = mocap.load_body("paper22")
     gt = folder_sequence(body=body, path=str(WALK), images=False).gt
     truth = fit_oracle(body, gt.joint_names, gt.joints[:3], None, gt.skeleton or None)
-    assert oracle["raw_mm"] == pytest.approx(truth.metrics["raw_mm"], rel=1e-6)
+    assert oracle["raw_mm"] == pytest.approx(truth.metrics["raw_mm"], abs=0.01)   # float32 body vs float64
     # a pose is kept only where it lowers E_S
     assert poses["silhouette_energy"] <= shape["silhouette_energy"] + 1e-9
     assert out["keyframes"] == [0, 2] and out["frames"] == 3
