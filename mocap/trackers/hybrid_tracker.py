@@ -150,7 +150,7 @@ class HybridTracker(LocalTracker):
             if accepted:
                 verts = self.shaped.pose(chi).vertices[0]
         t4 = time.perf_counter()
-        chi, shape = self.refine_shape(frame, chi)
+        chi, shape = self.refine_shape(frame, chi, aligned=not check.names)
         if shape is not None:
             timings["shape"] = time.perf_counter() - t4
             verts = self.shaped.pose(chi).vertices[0]

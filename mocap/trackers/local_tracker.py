@@ -74,15 +74,18 @@ class LocalTracker(SilhouetteInitialisation):
         """Track on with the shape ``alpha`` (K,)."""
         self.shaped = self.body.shaped(alpha)
 
-    def refine_shape(self, frame: Frame, chi: np.ndarray) -> tuple[np.ndarray, ShapeUpdate | None]:
-        """Keep this frame as a keyframe when it falls on the stride and, every ``every`` frames,
-        search the shape on the keyframes (:func:`refine_shape`); returns this frame's pose (moved
-        by the shift that came with a kept shape) and the report (None: no search this frame)."""
+    def refine_shape(self, frame: Frame, chi: np.ndarray, aligned: bool = True
+                     ) -> tuple[np.ndarray, ShapeUpdate | None]:
+        """Keep this frame as a keyframe when it falls on the stride and the misalignment check
+        flagged no limb (``aligned``: a shape fitted to a wrong pose would make up for it) and,
+        every ``every`` frames, search the shape on the keyframes (:func:`refine_shape`); returns
+        this frame's pose (moved by the shift that came with a kept shape) and the report (None:
+        no search this frame)."""
         s = self.shape_settings
         if not s.every or frame.masks is None:
             return chi, None
         due = frame.index % s.every == 0
-        if frame.index % s.stride == 0 or due:
+        if aligned and (frame.index % s.stride == 0 or due):
             self.keyframes.append((frame.index, chi, frame.masks))
         if not due or len(self.keyframes) < 2:
             return chi, None
@@ -137,7 +140,7 @@ class LocalTracker(SilhouetteInitialisation):
         verts = self.shaped.pose(chi).vertices[0]
         limbs = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
-        chi, shape = self.refine_shape(frame, chi)
+        chi, shape = self.refine_shape(frame, chi, aligned=not limbs.names)
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
         if shape is not None:
             timings["shape"] = time.perf_counter() - t2

@@ -77,7 +77,7 @@ def clip(body):
 def test_the_local_tracker_refines_on_schedule_and_carries_the_shape_on(body, clip):
     shape = {"every": 2, "keyframes": 3, "stride": 1, "particles": 40, "layers": 6, "std": 0.5}
     tracker = make_tracker("local", body=body, rig=clip.rig, rng=np.random.default_rng(0), iterations=3,
-                           shape=shape)
+                           shape=shape, misalignment={"threshold": 2.0})      # no limb ever flagged
     mean = np.zeros(body.num_shape)
     result = track_sequence(tracker, clip, clip.gt.chi[0], mean)
     updates = {f: e.diagnostics.shape for f, e in enumerate(result.estimates) if e.diagnostics.shape}
@@ -91,6 +91,18 @@ def test_the_local_tracker_refines_on_schedule_and_carries_the_shape_on(body, cl
     truth = clip.gt.alpha
     assert rest_joint_error_mm(body, alphas[-1], truth) < rest_joint_error_mm(body, mean, truth)
     assert tracker.shaped.alpha is not None and np.array_equal(tracker.shaped.alpha, alphas[-1])
+
+
+def test_frames_with_a_flagged_limb_are_not_keyframes(body, clip):
+    """A shape fitted to a wrong pose would make up for it: with every limb flagged no frame is
+    a keyframe, no search runs and the shape stays."""
+    shape = {"every": 2, "keyframes": 3, "stride": 1, "particles": 10, "layers": 2}
+    tracker = make_tracker("local", body=body, rig=clip.rig, rng=np.random.default_rng(0), iterations=1,
+                           shape=shape, misalignment={"threshold": -1.0})     # every limb flagged
+    result = track_sequence(tracker, clip, clip.gt.chi[0], np.zeros(body.num_shape))
+    assert all(e.diagnostics.misalignment.limbs for e in result.estimates[1:])
+    assert not any(e.diagnostics.shape for e in result.estimates) and len(tracker.keyframes) == 0
+    np.testing.assert_array_equal(result.estimates[-1].alpha, np.zeros(body.num_shape))
 
 
 def test_scoring_follows_a_shape_that_changes_during_the_run(body, clip):
