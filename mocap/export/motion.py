@@ -102,7 +102,7 @@ def decisions(diagnostics) -> dict:
     energy_evaluations, apf_called (None if not reported), limb_errors (dict), misaligned
     (list of limb names), unexplained / unexplained_limit (dicts by chain), initial, lost,
     reprojection_px, landmarks / landmark_names (tracker's own, may be None), weak_landmarks
-    (list)."""
+    (list), shape_update (a shape refinement's report as a dict, or None)."""
     d = diagnostics.as_dict() if hasattr(diagnostics, "as_dict") else diagnostics  # typed StepDiagnostics
     energy = _get(d, "energy")
     apf = _get(d, "apf_called")
@@ -122,6 +122,7 @@ def decisions(diagnostics) -> dict:
         "weak_landmarks": list(_get(d, "weak_landmarks", None) or []),
         "landmarks": _get(d, "landmarks"),
         "landmark_names": list(_get(d, "landmark_names", None) or []),
+        "shape_update": _get(d, "shape_update"),
     }
 
 

@@ -7,6 +7,8 @@ Entities (timeline ``frame``):
     plots/decisions/misaligned      number of misaligned limbs
     plots/decisions/limb_error/<limb>   the misalignment detector's error per limb
     log/decisions                   one line per frame: "frame 12: APF on l_knee, l_ankle"
+    log/shape                       one line per shape refinement: keyframes, E_S before and
+                                    after, kept or not (its values also under plots/shape/)
     run/shape                       shape coefficients alpha (text, logged when they change)
     views/<view>/landmarks          reprojected 3D landmarks (keypoint runs), next to the
                                     detections
@@ -56,6 +58,13 @@ class MotionLogger:
             if over:
                 text += " (unexplained pixels: " + ", ".join(over) + ")"
             rec.log("log/decisions", rr.TextLog(text, level="WARN" if dec["misaligned"] else "INFO"))
+        shape = dec["shape_update"]
+        if shape:
+            frames = ", ".join(str(k) for k in shape["keyframes"])
+            kept = "kept" if shape["accepted"] else "not kept"
+            rec.log("log/shape", rr.TextLog(
+                f"frame {f}: shape searched on keyframes {frames}: E_S {shape['energy_before']:.4f} -> "
+                f"{shape['energy_after']:.4f}, {kept}", level="INFO"))
         if dec["lost"]:
             rec.log("log/decisions", rr.TextLog(f"frame {f}: tracker lost", level="ERROR"))
 

@@ -19,7 +19,9 @@ def test_decisions_and_motion_are_logged(tmp_path, body):
     diags = [{"apf_called": 0, "misaligned_limbs": [], "limb_errors": {"l_knee": 0.1},
               "unexplained": {"l_hip": 0.001}, "unexplained_limit": {"l_hip": 0.005}},
              {"apf_called": 1, "misaligned_limbs": ["l_knee"], "limb_errors": {"l_knee": 0.4},
-              "unexplained": {"l_hip": 0.02}, "unexplained_limit": {"l_hip": 0.006}}]
+              "unexplained": {"l_hip": 0.02}, "unexplained_limit": {"l_hip": 0.006},
+              "shape_update": {"energy_before": 0.2, "energy_after": 0.15, "accepted": True,
+                               "shift_m": (0.0, 0.0, 0.01), "keyframes": (0, 1)}}]
     for f, d in enumerate(diags):
         rec.set_time("frame", sequence=f)
         log.frame(rec, f, Estimate(chi * (f + 1), np.zeros(body.num_shape), d))
@@ -39,6 +41,13 @@ def test_decisions_and_motion_are_logged(tmp_path, body):
             for f, t in zip(rb.column("frame").to_pylist(), rb.column("TextLog:text").to_pylist(),
                             strict=True):
                 texts[f] = t[0]
+    shapes = {}
+    for chunk in rr.chunk.RrdReader(str(path)).stream():
+        if chunk.entity_path == "/log/shape":
+            rb = chunk.to_record_batch()
+            shapes.update(zip(rb.column("frame").to_pylist(),
+                              [t[0] for t in rb.column("TextLog:text").to_pylist()], strict=True))
+    assert shapes == {1: "frame 1: shape searched on keyframes 0, 1: E_S 0.2000 -> 0.1500, kept"}
     assert "unexplained" not in texts[0]
     assert texts[1] == "frame 1: APF on l_knee (unexplained pixels: l_hip 2.00% > 0.60%)"
     dof = body.dof_names[7]
