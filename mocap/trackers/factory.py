@@ -4,7 +4,9 @@ plain keyword arguments in, a ready tracker out."""
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -116,7 +118,12 @@ def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, n
 #: motion library and on motions from other code it pulls limbs away (README, model-mismatch
 #: benchmark: walk 77 -> 63 mm, gesture 42 -> 34 mm, box 42 -> 48 mm; our own data unchanged)
 HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 0.0}, "init_std": (0.03, 0.03, 0.25),
-              "restart": 0.5}
+              "restart": 0.5, "restart_from_library": 0.5}
+#: the hybrid refines its shape every 10 frames on keyframes whose limbs were all aligned
+#: (:class:`mocap.trackers.shape_search.ShapeRefinement`); ``every: 0`` turns it off. With the
+#: library restarts, on the model-mismatch benchmark (3 seeds): walk 28.3 -> 26.4 mm, box
+#: 35.5 -> 33.1, gesture 24.6 -> 22.8 (README)
+HYBRID_SHAPE = {"every": 10}
 #: the hybrid's misalignment check also charges unexplained observed pixels to the nearest limb
 #: chain (:class:`mocap.local.misalignment.MisalignmentDetector`); ``unexplained: 0`` turns
 #: that side off (the paper's one-sided check)
@@ -130,19 +137,27 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     its APF (as for :func:`make_apf_tracker`, plus refine_iterations, restart and
     restart_from_library: the share of the restarted particles that take a pose of the pose
     prior's training motions, mirrored or not; default :data:`HYBRID_APF`); the local
-    tracker's misalignment check defaults to :data:`HYBRID_MISALIGNMENT`. ``_target_`` and
+    tracker's misalignment check defaults to :data:`HYBRID_MISALIGNMENT`, its shape
+    refinement to :data:`HYBRID_SHAPE`. ``_target_`` and
     ``name`` keys of composed configs are ignored."""
     a = merge(HYBRID_APF, {k: v for k, v in dict(apf or {}).items() if k not in ("_target_", "name")})
     loc = {k: v for k, v in dict(local or {}).items() if k not in ("_target_", "name", "keep_particles")}
     loc["misalignment"] = merge(HYBRID_MISALIGNMENT, dict(loc.get("misalignment") or {}))
+    loc["shape"] = merge(HYBRID_SHAPE, dict(loc.get("shape") or {}))
     prior = dict(a.pop("prior", None) or {})
     weights, pose_prior = _energy(body, a.pop("energy", None), prior)
     scale = internal_scale(rig, a.pop("resolution", 256))
     extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library") if k in a}
     if extra.get("restart_from_library"):
         # the restarts' motion library: the pose prior's training poses, and their mirror images
-        lib = ParzenPrior.load(prior.get("prior_file") or default_prior_path(body.name))
-        extra["library"] = library_poses(body, lib.samples, lib.dof_names)
+        path = prior.get("prior_file") or default_prior_path(body.name)
+        if prior.get("prior_file") or Path(path).is_file():
+            lib = ParzenPrior.load(path)
+            extra["library"] = library_poses(body, lib.samples, lib.dof_names)
+        else:
+            warnings.warn(f"no pose prior shipped for body {body.name!r} ({path}): the hybrid's restarts "
+                          "draw uniformly within the joint limits (apf.prior.prior_file names one)",
+                          stacklevel=2)
     init_std = tuple(a.pop("init_std"))
     settings = _search(a)
     if a:
