@@ -102,7 +102,8 @@ def decisions(diagnostics) -> dict:
     energy_evaluations, apf_called (None if not reported), limb_errors (dict), misaligned
     (list of limb names), unexplained / unexplained_limit (dicts by chain), initial, lost,
     reprojection_px, landmarks / landmark_names (tracker's own, may be None), weak_landmarks
-    (list), shape_update (a shape refinement's report as a dict, or None)."""
+    (list), shape_update (a shape refinement's report as a dict, or None), patrol (the APF
+    searched though no limb was flagged), apf_free_dofs (the DOFs it searched)."""
     d = diagnostics.as_dict() if hasattr(diagnostics, "as_dict") else diagnostics  # typed StepDiagnostics
     energy = _get(d, "energy")
     apf = _get(d, "apf_called")
@@ -123,6 +124,8 @@ def decisions(diagnostics) -> dict:
         "landmarks": _get(d, "landmarks"),
         "landmark_names": list(_get(d, "landmark_names", None) or []),
         "shape_update": _get(d, "shape_update"),
+        "patrol": bool(_get(d, "patrol", False)),
+        "apf_free_dofs": list(_get(d, "apf_free_dofs", None) or []),
     }
 
 

@@ -53,6 +53,8 @@ class MotionLogger:
             limbs = ", ".join(dec["misaligned"])
             text = (f"frame {f}: APF on {limbs}" if limbs and dec["apf_called"]
                     else f"frame {f}: misaligned {limbs}" if limbs else f"frame {f}: all limbs aligned")
+            if dec["patrol"]:
+                text += "; patrol search of " + ", ".join(dec["apf_free_dofs"])
             over = [f"{c} {100 * v:.2f}% > {100 * dec['unexplained_limit'][c]:.2f}%"
                     for c, v in dec["unexplained"].items() if v > dec["unexplained_limit"][c]]
             if over:

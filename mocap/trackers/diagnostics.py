@@ -58,7 +58,8 @@ class Misalignment:
     its result was kept (it is only where it lowers the frame's silhouette energy). With the
     two-sided check, each limb chain's share of the observed area left unexplained
     (``unexplained``, by chain root) and the share above which it was flagged
-    (``unexplained_limit``)."""
+    (``unexplained_limit``). ``patrol``: the APF searched a limb chain though none was flagged
+    (the hybrid's ``patrol``)."""
 
     limbs: tuple[str, ...] = ()
     limb_errors: Mapping[str, float] = field(default_factory=dict)
@@ -67,6 +68,7 @@ class Misalignment:
     apf_accepted: bool | None = None
     unexplained: Mapping[str, float] = field(default_factory=dict)
     unexplained_limit: Mapping[str, float] = field(default_factory=dict)
+    patrol: bool = False
 
     @classmethod
     def of(cls, check, **decision) -> Misalignment:
@@ -202,6 +204,8 @@ class StepDiagnostics:
                 d["apf_called"] = int(m.apf_called)
                 if m.apf_called:
                     d["apf_free_dofs"] = list(m.free_dofs)
+                if m.patrol:
+                    d["patrol"] = True
         if self.landmarks is not None:
             lm = self.landmarks
             d.update(landmarks=lm.points, landmark_names=list(lm.names),

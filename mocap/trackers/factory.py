@@ -136,7 +136,8 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     """The hybrid tracker: ``local`` holds :class:`LocalTracker`'s options, ``apf`` those of
     its APF (as for :func:`make_apf_tracker`, plus refine_iterations, restart and
     restart_from_library: the share of the restarted particles that take a pose of the pose
-    prior's training motions, mirrored or not; default :data:`HYBRID_APF`); the local
+    prior's training motions, mirrored or not; patrol: every that many frames with nothing
+    flagged, search one limb chain in turn all the same; default :data:`HYBRID_APF`); the local
     tracker's misalignment check defaults to :data:`HYBRID_MISALIGNMENT`, its shape
     refinement to :data:`HYBRID_SHAPE`. ``_target_`` and
     ``name`` keys of composed configs are ignored."""
@@ -147,7 +148,8 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     prior = dict(a.pop("prior", None) or {})
     weights, pose_prior = _energy(body, a.pop("energy", None), prior)
     scale = internal_scale(rig, a.pop("resolution", 256))
-    extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library") if k in a}
+    extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library", "patrol")
+             if k in a}
     if extra.get("restart_from_library"):
         # the restarts' motion library: the pose prior's training poses, and their mirror images
         path = prior.get("prior_file") or default_prior_path(body.name)

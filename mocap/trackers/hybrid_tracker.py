@@ -3,7 +3,9 @@ every frame; when a limb is misaligned afterwards, the prior-constrained anneale
 filter searches the degrees of freedom of the misaligned limbs only (the others held at the
 local result), and a short local refinement follows. The searched pose replaces the local one
 only where it lowers the frame's silhouette energy E_S, so the fallback cannot make a frame
-worse by the measure the tracker is judged on (``Misalignment.apf_accepted``)."""
+worse by the measure the tracker is judged on (``Misalignment.apf_accepted``). With
+``patrol`` = N, every N-th frame on which nothing was flagged one limb chain in turn is
+searched all the same (``Misalignment.patrol``)."""
 
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.local.misalignment import LimbCheck, limb_chains
 from mocap.trackers.anneal import anneal, perturb
 from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
@@ -94,13 +97,30 @@ class HybridTracker(LocalTracker):
                  init_std: tuple[float, float, float] = (0.03, 0.03, 0.25),
                  refine_iterations: int = 3, keep_particles: bool = False, name: str = "hybrid",
                  restart: float = 0.0, library: np.ndarray | None = None, restart_from_library: float = 0.0,
-                 **local: Mapping):
+                 patrol: int = 0, **local: Mapping):
         super().__init__(body, rig, name=name, rng=rng, **local)
         self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
         self.scale, self.std0 = scale, diffusion_std(body, *init_std)
         self.refine_iterations, self.keep_particles = refine_iterations, keep_particles
         self.restart = restart_fraction(restart)
         self.library, self.restart_from_library = library, restart_fraction(restart_from_library)
+        if patrol < 0:
+            raise ValueError(f"patrol must be >= 0 frames, got {patrol}")
+        self.patrol = int(patrol)
+        self.chains = limb_chains(body)
+
+    def patrol_check(self, frame: Frame, check: LimbCheck) -> LimbCheck | None:
+        """On every ``patrol``-th frame whose check flagged nothing, the check with one limb chain
+        flagged in turn (arms and legs round-robin), to be searched as if misaligned: a forearm
+        bent the wrong way inside the silhouettes can pass both sides of the check for many
+        frames while the silhouette energy still prefers the right pose (README, mismatch box).
+        None: no patrol this frame."""
+        if not self.patrol or check.names or not self.chains or frame.index % self.patrol:
+            return None
+        _, limbs = self.chains[(frame.index // self.patrol) % len(self.chains)]
+        flagged = np.zeros(self.body.num_joints, bool)
+        flagged[limbs] = True
+        return dataclasses.replace(check, flagged=flagged, names=[self.body.joint_names[j] for j in limbs])
 
     def set_shape(self, alpha: np.ndarray) -> None:
         super().set_shape(alpha)
@@ -116,11 +136,13 @@ class HybridTracker(LocalTracker):
         verts = self.shaped.pose(chi).vertices[0]
         check = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
-        decision = Misalignment.of(check, apf_called=bool(check.names))
+        patrol = self.patrol_check(frame, check)
+        decision = Misalignment.of(check, apf_called=bool(check.names) or patrol is not None,
+                                   patrol=patrol is not None)
         report = StepDiagnostics(local=local, misalignment=decision)
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
-        if check.names:
-            free = self.detector.free_dofs(check)
+        if decision.apf_called:
+            free = self.detector.free_dofs(patrol or check)
             target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
             energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior)
             chi_local = chi

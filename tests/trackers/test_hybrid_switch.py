@@ -254,3 +254,36 @@ def test_library_poses_hold_each_pose_and_its_mirror_image(body):
     flip = [body.joint_names.index(("r_" if n.startswith("l_") else "l_") + n[2:])
             if n[:2] in ("l_", "r_") else k for k, n in enumerate(body.joint_names)]
     np.testing.assert_allclose(m[flip] * [-1, 1, 1], j, atol=2e-3)
+
+
+def test_patrol_searches_one_chain_in_turn_when_nothing_is_flagged(body, seq):
+    """patrol=1 with a check that never fires: every frame the APF searches one limb chain (the
+    DOFs of that arm or leg and of its parent joint), the chains in turn; the decision says it
+    was a patrol. Without patrol the same check calls no APF."""
+    from mocap.local.misalignment import limb_chains
+
+    check = {"threshold": 1.5, "unexplained": 0.0}                 # never fires
+    h = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                     local={**LOCAL, "misalignment": check}, apf={**APF, "patrol": 1})
+    h.initialize(seq.gt.chi[0], seq.gt.alpha)
+    chains = limb_chains(body)
+    seen = []
+    for f in (1, 2):
+        e = h.step(frame_of(seq, f))
+        m = e.diagnostics.misalignment
+        assert m.apf_called is True and m.patrol is True and m.limbs == ()
+        _, limbs = chains[f % len(chains)]
+        joints = set(limbs) | {int(body.parents[j]) for j in limbs}
+        want = {n for n, j in zip(body.dof_names[6:], body.dof_joint, strict=True) if j in joints}
+        assert want and set(m.free_dofs) == want
+        assert e.diagnostics.anneal.evaluations == APF["particles"] * APF["layers"]
+        seen.append(frozenset(want))
+    assert seen[0] != seen[1]                                        # another chain each time
+    quiet = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                         local={**LOCAL, "misalignment": check}, apf=APF)
+    quiet.initialize(seq.gt.chi[0], seq.gt.alpha)
+    m = quiet.step(frame_of(seq, 1)).diagnostics.misalignment
+    assert m.apf_called is False and m.patrol is False
+    with pytest.raises(ValueError, match="patrol"):
+        make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                     apf={**APF, "patrol": -1})
