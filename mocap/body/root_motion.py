@@ -30,13 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from mocap.body.twists import se3_exp, se3_log, so3_exp, so3_log
-
-try:                            # compiled per-particle maps; numpy is the fallback
-    from numba import njit
-    HAVE_NUMBA = True
-except ImportError:             # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
-    njit = None
-    HAVE_NUMBA = False
+from mocap.compiled import HAVE_NUMBA, njit  # compiled per-particle maps; numpy is the fallback
 
 
 def _use_compiled(compiled: bool | None) -> bool:

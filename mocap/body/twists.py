@@ -171,12 +171,7 @@ def invert_rigid(T: np.ndarray) -> np.ndarray:
 # mocap.body.root_motion call them. Equal to the numpy versions to rounding
 # (tests/body/test_root_motion.py).
 
-try:
-    from numba import njit
-    HAVE_NUMBA = True
-except ImportError:             # pragma: no cover - numba is optional
-    njit = None
-    HAVE_NUMBA = False
+from mocap.compiled import HAVE_NUMBA, njit  # noqa: E402  (the compiled helpers below)
 
 if HAVE_NUMBA:
 

@@ -25,15 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from mocap.compiled import HAVE_NUMBA, njit, numba, prange  # noqa: F401  (numba: its config)
 from mocap.energy.fallback import warn_once
 from mocap.render import get_rasterizer
-
-try:
-    import numba
-    from numba import njit, prange
-except ImportError:                 # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
-    numba = None
-HAVE_NUMBA = numba is not None
 
 _HV, _DIAG, _LONG = 65536, 91750, 143976        # cvRound(65536 * (1, 1.4f, 2.1969f))
 _INIT = 2**30       # 'far' (OpenCV: INT_MAX); any value > every real distance * 65536

@@ -20,14 +20,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from mocap.compiled import HAVE_NUMBA, njit
 from mocap.energy.fallback import warn_once
-
-try:
-    from numba import njit
-except ImportError:                 # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
-    njit = None
-HAVE_NUMBA = njit is not None
-
 
 if HAVE_NUMBA:
 

@@ -33,13 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.body.root_motion import interpolate_root, perturb_root, root_mean, root_spread
-
-try:                            # compiled bisection of the betas; numpy is the fallback
-    from numba import njit
-    HAVE_NUMBA = True
-except ImportError:             # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
-    njit = None
-    HAVE_NUMBA = False
+from mocap.compiled import HAVE_NUMBA, njit  # compiled bisection of the betas; numpy is the fallback
 
 EnergyFn = Callable[[np.ndarray], np.ndarray]
 #: (particles (P, D), std (D,), limits (D, 2), rng, root_point (3,) or None) -> particles (P, D)
