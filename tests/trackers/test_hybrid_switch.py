@@ -20,9 +20,11 @@ def seq(body):
 
 
 def hybrid(body, seq, threshold, seed=0, unexplained=0.0):
+    """The paper's switch: the APF runs only where the check flags a limb (no patrol)."""
     return make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(seed),
                         local={**LOCAL, "misalignment": {"threshold": threshold,
-                                                         "unexplained": unexplained}}, apf=APF)
+                                                         "unexplained": unexplained}},
+                        apf={**APF, "patrol": 0})
 
 
 def test_switch_never_fires_above_every_limb_error_and_then_hybrid_is_local(body, seq):
