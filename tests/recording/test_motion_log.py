@@ -60,3 +60,18 @@ def test_annealing_layers_are_not_on_the_frame_timeline(short_run):
         if chunk.entity_path.startswith("/plots/layers"):
             names = chunk.to_record_batch().schema.names
             assert "anneal_step" in names and "frame" not in names
+
+
+def test_a_patrol_search_is_named_in_the_decision_log(tmp_path, body):
+    path = tmp_path / "r.rrd"
+    rec = rr.RecordingStream("t")
+    rec.save(path)
+    d = {"apf_called": 1, "misaligned_limbs": [], "limb_errors": {"l_elbow": 0.05}, "patrol": True,
+         "apf_free_dofs": ["l_shoulder_flex", "l_elbow_flex"]}
+    rec.set_time("frame", sequence=4)
+    MotionLogger(body.dof_names).frame(rec, 4, Estimate(np.zeros(body.num_dofs), np.zeros(body.num_shape), d))
+    rec.flush()
+    rec.disconnect()
+    texts = [t[0] for chunk in rr.chunk.RrdReader(str(path)).stream() if chunk.entity_path == "/log/decisions"
+             for t in chunk.to_record_batch().column("TextLog:text").to_pylist()]
+    assert texts == ["frame 4: all limbs aligned; patrol search of l_shoulder_flex, l_elbow_flex"]
