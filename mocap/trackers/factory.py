@@ -118,11 +118,13 @@ def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, n
 #: motion library and on motions from other code it pulls limbs away (README, model-mismatch
 #: benchmark: walk 77 -> 63 mm, gesture 42 -> 34 mm, box 42 -> 48 mm; our own data unchanged)
 HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 0.0}, "init_std": (0.03, 0.03, 0.25),
-              "restart": 0.5, "restart_from_library": 0.5, "patrol": 1}
-#: ``patrol: 1``: every frame on which nothing is flagged one limb chain in turn is searched all
-#: the same (mismatch benchmark, 3 seeds, without -> every 2nd frame -> every frame: box 33.1 ->
-#: 28.1 -> 23.2 mm, walk 26.4 -> 26.6 -> 23.8, gesture 22.8 -> 21.6 -> 22.1; the APF then runs
-#: on every frame; README)
+              "restart": 0.5, "restart_from_library": 0.5, "patrol": 0}
+#: ``patrol`` (off): every N-th frame on which nothing is flagged, search one limb chain in turn
+#: all the same. With 8 exact views it helps (3 seeds, off -> every 2nd frame -> every frame: box
+#: 33.1 -> 28.1 -> 23.2 mm, walk 26.4 -> 26.6 -> 23.8, gesture 22.8 -> 21.6 -> 22.1), but with 4
+#: views every frame lost the walk and the gesture (26 and 34 frames lost, seed 0) and with noisy
+#: silhouettes every 2nd frame was worse on all three sequences: E_S alone accepts wrong limbs
+#: where the silhouettes say less (README)
 #: the hybrid refines its shape every 10 frames on keyframes whose limbs were all aligned
 #: (:class:`mocap.trackers.shape_search.ShapeRefinement`); ``every: 0`` turns it off. With the
 #: library restarts, on the model-mismatch benchmark (3 seeds): walk 28.3 -> 26.4 mm, box
