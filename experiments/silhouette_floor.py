@@ -91,7 +91,7 @@ def floor(data: str, rounds: int, keyframes: int, frames: int | None, seed: int)
     for r in range(rounds):
         t = time.perf_counter()
         found = refine_shape(body, rig, alpha, chis[keys], [masks[k] for k in keys], tuple(keys),
-                             search, scale, rng)
+                             search, rng)
         if found.accepted:
             alpha = found.alpha
             chis = np.stack([shifted(c, found.shift) for c in chis])

@@ -117,14 +117,14 @@ def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, n
 #: Zhang et al.'s hybrid uses it (``energy: {prior: 1.0}``), but ours is learned from our own
 #: motion library and on motions from other code it pulls limbs away (README, model-mismatch
 #: benchmark: walk 77 -> 63 mm, gesture 42 -> 34 mm, box 42 -> 48 mm; our own data unchanged)
-HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 0.0}, "init_std": (0.03, 0.03, 0.25),
-              "restart": 0.5, "restart_from_library": 0.5, "patrol": 0}
 #: ``patrol`` (off): every N-th frame on which nothing is flagged, search one limb chain in turn
 #: all the same. With 8 exact views it helps (3 seeds, off -> every 2nd frame -> every frame: box
 #: 33.1 -> 28.1 -> 23.2 mm, walk 26.4 -> 26.6 -> 23.8, gesture 22.8 -> 21.6 -> 22.1), but with 4
 #: views every frame lost the walk and the gesture (26 and 34 frames lost, seed 0) and with noisy
 #: silhouettes every 2nd frame was worse on all three sequences: E_S alone accepts wrong limbs
 #: where the silhouettes say less (README)
+HYBRID_APF = {"particles": 25, "layers": 10, "energy": {"prior": 0.0}, "init_std": (0.03, 0.03, 0.25),
+              "restart": 0.5, "restart_from_library": 0.5, "patrol": 0}
 #: the hybrid refines its shape every 10 frames on keyframes whose limbs were all aligned
 #: (:class:`mocap.trackers.shape_search.ShapeRefinement`); ``every: 0`` turns it off. With the
 #: library restarts, on the model-mismatch benchmark (3 seeds): walk 28.3 -> 26.4 mm, box
@@ -145,8 +145,8 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     prior's training motions, mirrored or not; patrol: every that many frames with nothing
     flagged, search one limb chain in turn all the same; default :data:`HYBRID_APF`); the local
     tracker's misalignment check defaults to :data:`HYBRID_MISALIGNMENT`, its shape
-    refinement to :data:`HYBRID_SHAPE`. ``_target_`` and
-    ``name`` keys of composed configs are ignored."""
+    refinement to :data:`HYBRID_SHAPE`. ``_target_`` and ``name`` keys of composed configs are
+    ignored."""
     a = merge(HYBRID_APF, {k: v for k, v in dict(apf or {}).items() if k not in ("_target_", "name")})
     loc = {k: v for k, v in dict(local or {}).items() if k not in ("_target_", "name", "keep_particles")}
     loc["misalignment"] = merge(HYBRID_MISALIGNMENT, dict(loc.get("misalignment") or {}))

@@ -171,14 +171,6 @@ class HybridTracker(LocalTracker):
             timings.update({"apf": t3 - t2, "refine": time.perf_counter() - t3})
             if accepted:
                 verts = self.shaped.pose(chi).vertices[0]
-        t4 = time.perf_counter()
-        chi, shape = self.refine_shape(frame, chi, aligned=not check.names)
-        if shape is not None:
-            timings["shape"] = time.perf_counter() - t4
-            verts = self.shaped.pose(chi).vertices[0]
-            report = dataclasses.replace(report, shape=shape)
-        if self.sift is not None and frame.images is not None:
-            self.sift.remember(frame.images, verts.astype(np.float64))
-        self.history = (self.history + [chi])[-3:]
+        chi, shape = self.finish_step(frame, chi, verts, not check.names, timings)
         return Estimate(chi=chi, alpha=self.shaped.alpha,
-                        diagnostics=dataclasses.replace(report, timings=timings))
+                        diagnostics=dataclasses.replace(report, shape=shape, timings=timings))

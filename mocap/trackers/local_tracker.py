@@ -91,7 +91,7 @@ class LocalTracker(SilhouetteInitialisation):
             return chi, None
         frames, chis, masks = zip(*self.keyframes, strict=True)
         found = refine_shape(self.body, self.rig, self.shaped.alpha, np.stack(chis), list(masks), frames,
-                             s, self.shape_scale, self.init_rng)
+                             s, self.init_rng)
         if found.accepted:
             self.set_shape(found.alpha)
             chi = shifted(chi, found.shift)
@@ -101,10 +101,20 @@ class LocalTracker(SilhouetteInitialisation):
         return chi, ShapeUpdate(found.energy_before, found.energy_after, found.accepted,
                                 tuple(float(x) for x in found.shift), found.frames)
 
-    @property
-    def shape_scale(self) -> float:
-        """Silhouette scale of the shape search: 256 px on the longer image side."""
-        return min(1.0, 256 / float(np.max(self.rig.sizes)))
+    def finish_step(self, frame: Frame, chi: np.ndarray, verts: np.ndarray, aligned: bool,
+                    timings: dict) -> tuple[np.ndarray, ShapeUpdate | None]:
+        """The end of every step: the shape refinement (:meth:`refine_shape`; its time goes into
+        ``timings``), then SIFT remembers this frame's body and the pose joins the history.
+        ``verts``: the body posed at ``chi``; returns the frame's pose and the shape report."""
+        t = time.perf_counter()
+        chi, shape = self.refine_shape(frame, chi, aligned)
+        if shape is not None:
+            timings["shape"] = time.perf_counter() - t
+            verts = self.shaped.pose(chi).vertices[0]
+        if self.sift is not None and frame.images is not None:
+            self.sift.remember(frame.images, verts.astype(np.float64))
+        self.history = (self.history + [chi])[-3:]
+        return chi, shape
 
     def local_step(self, frame: Frame, start: np.ndarray,
                    free: np.ndarray | None = None) -> tuple[np.ndarray, LocalTrace]:
@@ -140,13 +150,7 @@ class LocalTracker(SilhouetteInitialisation):
         verts = self.shaped.pose(chi).vertices[0]
         limbs = self.detector(verts, frame.masks)
         t2 = time.perf_counter()
-        chi, shape = self.refine_shape(frame, chi, aligned=not limbs.names)
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
-        if shape is not None:
-            timings["shape"] = time.perf_counter() - t2
-            verts = self.shaped.pose(chi).vertices[0]
-        if self.sift is not None and frame.images is not None:
-            self.sift.remember(frame.images, verts.astype(np.float64))
-        self.history = (self.history + [chi])[-3:]
+        chi, shape = self.finish_step(frame, chi, verts, not limbs.names, timings)
         return Estimate(chi=chi, alpha=self.shaped.alpha, diagnostics=StepDiagnostics(
             local=local, misalignment=Misalignment.of(limbs), shape=shape, timings=timings))

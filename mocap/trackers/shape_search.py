@@ -73,8 +73,9 @@ class ShapeRefinement:
     the last ``keyframes`` frames, one every ``stride`` frames, are scored; ``components``:
     shape coefficients searched; an annealed search of ``particles`` x ``layers`` with a
     first-layer spread ``std`` (PCA units) per coefficient and ``shift`` (m) on the shared
-    3D offset; the result is kept when it lowers the keyframes' E_S at ``check_resolution``
-    px (longest image side) by more than ``min_gain`` (relative)."""
+    3D offset, on silhouettes at ``resolution`` px (longest image side); the result is kept
+    when it lowers the keyframes' E_S at ``check_resolution`` px by more than ``min_gain``
+    (relative)."""
 
     every: int = 0
     keyframes: int = 6
@@ -84,6 +85,7 @@ class ShapeRefinement:
     layers: int = 6
     std: float = 0.3
     shift: float = 0.02
+    resolution: int = 256
     check_resolution: int = 512
     min_gain: float = 0.01
 
@@ -92,6 +94,8 @@ class ShapeRefinement:
             raise ValueError(f"shape refinement: every >= 0, keyframes, stride, components >= 1: {self}")
         if self.particles < 2 or self.layers < 1 or self.std <= 0 or self.shift < 0:
             raise ValueError(f"shape refinement: particles >= 2, layers >= 1, std > 0, shift >= 0: {self}")
+        if self.resolution < 1 or self.check_resolution < 1:
+            raise ValueError(f"shape refinement: resolution and check_resolution >= 1 px: {self}")
 
 
 @dataclass(frozen=True)
@@ -108,12 +112,12 @@ class ShapeResult:
 
 
 def refine_shape(body: BodyModel, rig: Rig, alpha: np.ndarray, chis: np.ndarray, masks: list[np.ndarray],
-                 frames: tuple[int, ...], settings: ShapeRefinement, scale: float,
+                 frames: tuple[int, ...], settings: ShapeRefinement,
                  rng: np.random.Generator) -> ShapeResult:
     """Search the first ``settings.components`` coefficients of ``alpha`` and a shared shift on
-    keyframes: poses chis (N, D), masks (N of (C, H, W) bool), at silhouette ``scale``;
-    frames: their indices (reported)."""
+    keyframes: poses chis (N, D), masks (N of (C, H, W) bool); frames: their indices (reported)."""
     C = min(settings.components, body.num_shape)
+    scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
     alpha = np.asarray(alpha, np.float64)
     names = tuple(rig.names)
     coarse = [silhouette_target(m, scale, view_names=names) for m in masks]

@@ -16,7 +16,8 @@ from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import track_sequence
 from mocap.trackers.shape_search import ShapeRefinement, refine_shape
 
-SEARCH = ShapeRefinement(every=1, particles=60, layers=8, std=0.6, shift=0.02, min_gain=0.01)
+SEARCH = ShapeRefinement(every=1, particles=60, layers=8, std=0.6, shift=0.02, min_gain=0.01,
+                         resolution=200)                      # the masks' own size: scale 1
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +47,7 @@ def rest_joint_error_mm(body, a, b):
 def test_refinement_finds_the_subjects_build_from_its_keyframes(body, keyframes):
     rig, truth, chis, masks = keyframes
     mean = np.zeros(body.num_shape)
-    found = refine_shape(body, rig, mean, chis, masks, (0, 1, 2), SEARCH, 1.0, np.random.default_rng(0))
+    found = refine_shape(body, rig, mean, chis, masks, (0, 1, 2), SEARCH, np.random.default_rng(0))
     assert found.accepted and found.energy_after < 0.8 * found.energy_before
     before, after = rest_joint_error_mm(body, mean, truth), rest_joint_error_mm(body, found.alpha, truth)
     assert after < 0.5 * before, (before, after)
@@ -55,14 +56,14 @@ def test_refinement_finds_the_subjects_build_from_its_keyframes(body, keyframes)
 
 def test_refinement_keeps_a_shape_that_already_explains_the_keyframes(body, keyframes):
     rig, truth, chis, masks = keyframes
-    found = refine_shape(body, rig, truth, chis, masks, (0, 1, 2), SEARCH, 1.0, np.random.default_rng(0))
+    found = refine_shape(body, rig, truth, chis, masks, (0, 1, 2), SEARCH, np.random.default_rng(0))
     assert not found.accepted
     np.testing.assert_array_equal(found.alpha, truth)
     np.testing.assert_array_equal(found.shift, np.zeros(3))
 
 
 @pytest.mark.parametrize("bad", [{"every": -1}, {"keyframes": 0}, {"stride": 0}, {"particles": 1},
-                                 {"std": 0.0}, {"shift": -0.1}])
+                                 {"std": 0.0}, {"shift": -0.1}, {"resolution": 0}])
 def test_bad_settings_are_refused_when_made(bad):
     with pytest.raises(ValueError, match="shape refinement"):
         ShapeRefinement(**bad)
