@@ -52,6 +52,8 @@ TRACKERS = {
     "apf_25x10": ("apf_25x10", [], False),
     "apf": ("apf", [], False),
     "hybrid": ("hybrid", ["+tracker.local.sift.enabled=false"], False),
+    "apf_prior_mesh2000": ("apf_prior", ["+tracker.energy_mesh=2000"], False),
+    "apf_mesh2000": ("apf", ["+tracker.energy_mesh=2000"], False),
 }
 
 

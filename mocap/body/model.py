@@ -66,6 +66,21 @@ class ShapedBody:
         return BodyOutput(vertices=lbs_apply(self._basis_t, G),
                           joints=posed_joints(G, self.rest_joints), transforms=G)
 
+    def vertices(self, chi: np.ndarray, basis_t: np.ndarray | None = None) -> np.ndarray:
+        """Posed vertices only: (P, D) -> (P, V, 3); with ``basis_t`` (4J, V') the vertices of
+        a mesh riding on this body (e.g. :meth:`EnergyMesh.skinning_basis
+        <mocap.body.energy_mesh.EnergyMesh.skinning_basis>`) instead of its own."""
+        m = self.model
+        chi, _ = _as_batch(chi, m.num_dofs, "pose chi", m.dtype)
+        G = chain_transforms(m.parents, m.dof_joint, self.axes, self.rest_joints,
+                             chi[:, :6], chi[:, 6:])
+        return lbs_apply(self._basis_t if basis_t is None else basis_t, G)
+
+    @property
+    def skinning_basis(self) -> np.ndarray:
+        """(4J, V): the basis this body is skinned with (:func:`mocap.body.lbs.lbs_basis`)."""
+        return self._basis_t
+
     def joints(self, chi: np.ndarray) -> np.ndarray:
         """Joint positions only (no skinning): (P, D) -> (P, J, 3)."""
         m = self.model

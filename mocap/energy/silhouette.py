@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from mocap.body.energy_mesh import EnergyMesh
 from mocap.cameras import Rig, project
 from mocap.energy import fused
 from mocap.render import distance_transform, get_rasterizer
@@ -137,17 +138,26 @@ class SilhouetteEnergy:
     per particle-view), "numpy" the scanline rasterizer and :func:`chamfer_energy` (same
     energies up to summation order), "auto" / None the compiled one when numba imports
     (``DEFAULT_BACKEND`` when None).
+    mesh: an :class:`~mocap.body.energy_mesh.EnergyMesh` to rasterise instead of the full
+    body mesh (fewer triangles and vertices per particle-view), None for the full mesh.
     """
 
-    def __init__(self, shaped, rig: Rig, scale: float = 0.25, backend: str | None = None):
+    def __init__(self, shaped, rig: Rig, scale: float = 0.25, backend: str | None = None,
+                 mesh: EnergyMesh | None = None):
         self.shaped = shaped
         self.rig = rig
         self.scale = float(scale)
         self.internal = rig.scaled(self.scale)
         w, h = (int(x) for x in self.internal.sizes[0])
         self.size = (h, w)
-        faces = shaped.model.faces
-        self.rasterizer = get_rasterizer(faces, shaped.model.num_vertices)
+        if mesh is not None and mesh.num_source != shaped.model.num_vertices:
+            raise ValueError(f"the energy mesh reads {mesh.num_source} vertices, the body has "
+                             f"{shaped.model.num_vertices}")
+        self.mesh = mesh
+        self._basis = None if mesh is None else mesh.skinning_basis(shaped.skinning_basis)
+        faces = shaped.model.faces if mesh is None else mesh.faces
+        num_vertices = shaped.model.num_vertices if mesh is None else mesh.num_vertices
+        self.rasterizer = get_rasterizer(faces, num_vertices)
         backend = DEFAULT_BACKEND if backend is None else backend
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
@@ -155,22 +165,28 @@ class SilhouetteEnergy:
             raise RuntimeError("backend='numba' but numba is not installed")
         use_numba = backend == "numba" or (backend == "auto" and fused.numba_available())
         self.backend = "numba" if use_numba else "numpy"
-        self.fused = (fused.FusedSilhouetteEnergy(faces, shaped.model.num_vertices)
-                      if use_numba else None)
+        self.fused = fused.FusedSilhouetteEnergy(faces, num_vertices) if use_numba else None
+
+    def energy_vertices(self, vertices: np.ndarray) -> np.ndarray:
+        """(P, V, 3) posed body vertices -> the vertices this energy rasterises."""
+        return vertices if self.mesh is None else self.mesh.apply(vertices)
 
     def model_masks(self, vertices: np.ndarray) -> np.ndarray:
-        """(P, V, 3) world vertices -> (P, C, h, w) bool silhouettes at internal resolution."""
+        """(P, V, 3) posed body vertices -> (P, C, h, w) bool silhouettes at internal
+        resolution (of the energy mesh where there is one)."""
+        return self._rasterize(self.energy_vertices(vertices))
+
+    def _rasterize(self, vertices: np.ndarray) -> np.ndarray:
         px, depth = project(self.internal, vertices, return_depth=True)
-        h, w = self.size
-        return self.rasterizer(px, h, w, depth, near=0.05)
+        return self.rasterizer(px, *self.size, depth, near=0.05)
 
     def per_view(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
         """(P, D) -> (P, C) chamfer per view (NaN for ignored views)."""
-        vertices = self.shaped.pose(chi).vertices
-        if self.fused is not None:
-            px, depth = project(self.internal, vertices, return_depth=True)
-            return self.fused(px, depth, target, near=0.05)
-        return chamfer_energy(self.model_masks(vertices), target)
+        vertices = self.shaped.vertices(chi, self._basis)       # of the energy mesh
+        if self.fused is None:
+            return chamfer_energy(self._rasterize(vertices), target)
+        px, depth = project(self.internal, vertices, return_depth=True)
+        return self.fused(px, depth, target, near=0.05)
 
     def __call__(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
         """(P, D) -> (P,) E_S, the mean over valid views."""

@@ -8,6 +8,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
@@ -33,13 +34,14 @@ class APFTracker(AnnealedStep, SilhouetteInitialisation):
                  rng: np.random.Generator, prior: PosePrior | None = None, scale: float = 0.25,
                  init_std: Sequence[float] = (0.03, 0.03, 0.08), prediction_damping: float = 1.0,
                  keep_particles: bool = False, name: str = "apf",
-                 initialization: Mapping | None = None):
+                 initialization: Mapping | None = None, energy_mesh: int | None = None):
         self.body, self.rig, self.settings, self.weights = body, rig, settings, weights
         self.rng, self.prior, self.scale, self.name = rng, prior, scale, name
         self.std0 = diffusion_std(body, *init_std)
         self.damping = prediction_damping
         self.keep_particles = keep_particles
         self.init_settings = InitSettings(**dict(initialization or {}))
+        self.energy_mesh = energy_mesh_for(body, energy_mesh)   # None: the full mesh
         self.init_rng = rng
         self.history: list[np.ndarray] = []
         self.shaped = None
@@ -48,7 +50,7 @@ class APFTracker(AnnealedStep, SilhouetteInitialisation):
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         chi = self.checked_pose(chi)
         self.shaped = self.body.shaped(alpha)
-        self.energy = SilhouetteEnergy(self.shaped, self.rig, self.scale)
+        self.energy = SilhouetteEnergy(self.shaped, self.rig, self.scale, mesh=self.energy_mesh)
         self.history = [chi]
 
     def predict(self) -> np.ndarray:

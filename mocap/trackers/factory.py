@@ -66,8 +66,10 @@ def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, nam
     """The silhouette APF. Search keys (particles, layers, survival, diffusion, shrink,
     min_std_fraction, estimate) go to :class:`APFSettings`, energy weights to
     :class:`EnergyWeights`, prior options to :func:`make_pose_prior`, the rest (init_std,
-    prediction_damping, keep_particles, initialization) to :class:`APFTracker`; every default
-    is theirs. resolution: internal silhouette resolution, px of the longer image side."""
+    prediction_damping, keep_particles, initialization, energy_mesh: the silhouette energy
+    rasterises the body decimated to that many triangles, None the full mesh) to
+    :class:`APFTracker`; every default is theirs. resolution: internal silhouette resolution,
+    px of the longer image side."""
     options = dict(options)
     settings = _search(options)
     weights, pose_prior = _energy(body, energy, prior)
@@ -143,7 +145,8 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     its APF (as for :func:`make_apf_tracker`, plus refine_iterations, restart and
     restart_from_library: the share of the restarted particles that take a pose of the pose
     prior's training motions, mirrored or not; patrol: every that many frames with nothing
-    flagged, search one limb chain in turn all the same; default :data:`HYBRID_APF`); the local
+    flagged, search one limb chain in turn all the same; energy_mesh: as for the APF; default
+    :data:`HYBRID_APF`); the local
     tracker's misalignment check defaults to :data:`HYBRID_MISALIGNMENT`, its shape
     refinement to :data:`HYBRID_SHAPE`. ``_target_`` and ``name`` keys of composed configs are
     ignored."""
@@ -154,8 +157,8 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     prior = dict(a.pop("prior", None) or {})
     weights, pose_prior = _energy(body, a.pop("energy", None), prior)
     scale = internal_scale(rig, a.pop("resolution", 256))
-    extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library", "patrol")
-             if k in a}
+    extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library", "patrol",
+                                    "energy_mesh") if k in a}
     if extra.get("restart_from_library"):
         # the restarts' motion library: the pose prior's training poses, and their mirror images
         path = prior.get("prior_file") or default_prior_path(body.name)

@@ -15,6 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
@@ -97,7 +98,7 @@ class HybridTracker(LocalTracker):
                  init_std: tuple[float, float, float] = (0.03, 0.03, 0.25),
                  refine_iterations: int = 3, keep_particles: bool = False, name: str = "hybrid",
                  restart: float = 0.0, library: np.ndarray | None = None, restart_from_library: float = 0.0,
-                 patrol: int = 0, **local: Mapping):
+                 patrol: int = 0, energy_mesh: int | None = None, **local: Mapping):
         super().__init__(body, rig, name=name, rng=rng, **local)
         self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
         self.scale, self.std0 = scale, diffusion_std(body, *init_std)
@@ -108,6 +109,7 @@ class HybridTracker(LocalTracker):
             raise ValueError(f"patrol must be >= 0 frames, got {patrol}")
         self.patrol = int(patrol)
         self.chains = limb_chains(body)
+        self.energy_mesh = energy_mesh_for(body, energy_mesh)   # None: the full mesh
 
     def patrol_check(self, frame: Frame, check: LimbCheck) -> LimbCheck | None:
         """On every ``patrol``-th frame whose check flagged nothing, the check with one limb chain
@@ -124,7 +126,7 @@ class HybridTracker(LocalTracker):
 
     def set_shape(self, alpha: np.ndarray) -> None:
         super().set_shape(alpha)
-        self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale)
+        self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale, mesh=self.energy_mesh)
 
     def step(self, frame: Frame) -> Estimate:
         if self.shaped is None:

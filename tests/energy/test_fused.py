@@ -146,7 +146,7 @@ def test_fused_equals_the_numpy_path_on_a_mesh_with_non_manifold_edges(body):
     rig, sb, target, chi, _ = scene(body)
     faces = np.concatenate([body.faces, body.faces[:40]])
     sb2 = SimpleNamespace(model=SimpleNamespace(faces=faces, num_vertices=body.num_vertices),
-                          pose=sb.pose)
+                          pose=sb.pose, vertices=sb.vertices)
     a = SilhouetteEnergy(sb2, rig, scale=1.0, backend="numba")
     b = SilhouetteEnergy(sb2, rig, scale=1.0, backend="numpy")
     assert a.fused.edge_arrays[2].shape[1] == 2
