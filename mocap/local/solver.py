@@ -18,6 +18,7 @@ import numpy as np
 from mocap.body.model import BodyModel
 from mocap.body.twists import hat, se3_exp, se3_log
 from mocap.local.jacobian import ancestors, point_jacobians
+from mocap.local.normal_equations import accumulate, active_dofs, compiled_available
 
 # True: the code path before issue 15 (benchmarks/bench_speed.py --compare times both)
 LEGACY = False
@@ -99,17 +100,22 @@ def linear_system_reference(body: BodyModel, corr: PointLines, w: np.ndarray, q:
     return e0.reshape(-1), A.reshape(-1, body.num_dofs), np.repeat(corr.weights, 3)
 
 
-_MOVES: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+_MOVES: dict[tuple[int, int], tuple] = {}
 
 
-def _moves(body: BodyModel) -> np.ndarray:
-    """(J, Dj) float 1 where revolute DOF j moves limb k (ancestors of k), once per tree."""
+def _tree_tables(body: BodyModel) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """Once per tree: (J, Dj) float 1 where revolute DOF j moves limb k (ancestors of k), and
+    the same as per-limb DOF lists (:func:`~mocap.local.normal_equations.active_dofs`)."""
     key = (id(body.parents), id(body.dof_joint))
     cached = _MOVES.get(key)
     if cached is None or cached[0] is not body.parents or cached[1] is not body.dof_joint:
         table = ancestors(body.parents)[:, body.dof_joint].astype(np.float64)
-        cached = _MOVES[key] = (body.parents, body.dof_joint, table)
-    return cached[2]
+        cached = _MOVES[key] = (body.parents, body.dof_joint, table, active_dofs(table))
+    return cached[2], cached[3]
+
+
+def _moves(body: BodyModel) -> np.ndarray:
+    return _tree_tables(body)[0]
 
 
 def apply_delta(body: BodyModel, chi: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -118,6 +124,21 @@ def apply_delta(body: BodyModel, chi: np.ndarray, delta: np.ndarray) -> np.ndarr
     out[:6] = se3_log(se3_exp(delta[:6]) @ se3_exp(out[:6]))
     out[6:] += delta[6:]
     return np.clip(out, body.limits[:, 0], body.limits[:, 1])
+
+
+def normal_equations(body: BodyModel, corr: PointLines, w: np.ndarray, q: np.ndarray,
+                     free: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """H = A^T W A (D, D), g = A^T W e0 (D,) and the weighted RMS point-line distance of
+    :func:`linear_system`'s system, compiled (:mod:`mocap.local.normal_equations`) or, without
+    numba and on the LEGACY path, from the stacked matrix."""
+    if not LEGACY and compiled_available():
+        free_mask = np.ones(body.num_dofs, bool) if free is None else np.asarray(free) != 0
+        H, g, sq = accumulate(corr.points, corr.d, corr.m, corr.weights, corr.limbs,
+                              _tree_tables(body)[1], q, w, free_mask)
+        return H, g, float(np.sqrt(sq / max(3.0 * float(np.sum(corr.weights)), 1e-12)))
+    e0, A, wt = linear_system(body, corr, w, q, free)
+    rms = float(np.sqrt((wt * e0**2).sum() / max(wt.sum(), 1e-12)))
+    return A.T @ (wt[:, None] * A), A.T @ (wt * e0), rms
 
 
 def gauss_newton_step(body: BodyModel, chi: np.ndarray, corr: PointLines, w: np.ndarray,
@@ -129,10 +150,7 @@ def gauss_newton_step(body: BodyModel, chi: np.ndarray, corr: PointLines, w: np.
     if len(corr) < min_correspondences:
         return StepResult(chi, np.zeros_like(chi), False,
                           f"too few correspondences ({len(corr)} < {min_correspondences})")
-    e0, A, wt = linear_system(body, corr, w, q, free)
-    rms = float(np.sqrt((wt * e0**2).sum() / max(wt.sum(), 1e-12)))
-    H = A.T @ (wt[:, None] * A)
-    g = A.T @ (wt * e0)
+    H, g, rms = normal_equations(body, corr, w, q, free)
     scale = np.maximum(np.diag(H), 1e-12)
     Hd = H + damping * np.diag(scale) + 1e-9 * np.eye(len(H))
     try:

@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -104,6 +106,40 @@ def test_assembled_system_equals_the_one_from_the_full_jacobian(scene):
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
 
 
+def test_compiled_normal_equations_equal_the_full_jacobian_ones(scene, monkeypatch):
+    """H = A^T W A and g = A^T W e0 accumulated per correspondence on the active DOFs only
+    (compiled) equal the products of the reference (N, 3, D) Jacobian system, with and
+    without free-DOF masks and with uneven weights; without numba the numpy path gives them
+    too."""
+    from mocap.energy import fallback
+    from mocap.local import normal_equations as kernel
+    from mocap.local.solver import linear_system_reference, normal_equations
+
+    pytest.importorskip("numba")
+    sb, truth, rig, vid = scene
+    body = sb.model
+    start = truth.copy()
+    start[6:] += 0.1
+    corr, _ = exact_correspondences(sb, truth, rig, vid)(sb.pose(start).vertices[0].astype(np.float64))
+    rng = np.random.default_rng(5)
+    corr = dataclasses.replace(corr, weights=rng.uniform(0.2, 2.0, len(corr)))
+    w, q, _ = dof_frames(body, sb.axes, sb.rest_joints, start)
+    free = rng.random(body.num_dofs) < 0.7
+    for f in (None, free):
+        e0, A, wt = linear_system_reference(body, corr, w, q, f)
+        H, g, rms = normal_equations(body, corr, w, q, f)
+        np.testing.assert_allclose(H, A.T @ (wt[:, None] * A), rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(g, A.T @ (wt * e0), rtol=1e-10, atol=1e-12)
+        assert rms == pytest.approx(np.sqrt((wt * e0**2).sum() / wt.sum()), rel=1e-12)
+        monkeypatch.setattr(kernel, "HAVE_NUMBA", False)
+        monkeypatch.setattr(fallback, "WARNED", set())
+        with pytest.warns(RuntimeWarning, match="numpy path"):
+            H2, g2, rms2 = normal_equations(body, corr, w, q, f)
+        monkeypatch.undo()
+        np.testing.assert_allclose(H2, H, rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(g2, g, rtol=1e-10, atol=1e-12)
+
+
 def test_energy_tolerance_stops_once_the_fit_stops_improving(scene):
     """Rays through noisy targets: the RMS falls to the noise floor; the rule ends the loop
     there, where the full 10 iterations gain nothing."""
@@ -133,3 +169,12 @@ def test_energy_tolerance_stops_once_the_fit_stops_improving(scene):
     # stopping early costs nothing measurable: joints within 0.1 mm of the 10-iteration fit
     J_full, J = sb.joints(chi_full)[0], sb.joints(chi)[0]
     assert 1e3 * np.linalg.norm(J - J_full, axis=1).max() < 0.1
+
+
+def test_percentile90_is_numpys_percentile_bit_for_bit():
+    from mocap.local.contour import percentile90
+
+    rng = np.random.default_rng(11)
+    for n in [*range(1, 40), 101, 1000, 4321]:
+        x = rng.exponential(5.0, n)
+        assert percentile90(x) == np.percentile(x, 90)
