@@ -18,8 +18,24 @@ import trimesh
 
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project
+from mocap.energy.fallback import warn_once
+from mocap.local.raycast import HAVE_NUMBA, first_hits
 from mocap.local.solver import PointLines
 from mocap.render import get_rasterizer
+
+
+def surface_hits(verts: np.ndarray, faces: np.ndarray, origin: np.ndarray,
+                 directions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """First hits of rays from ``origin`` on the mesh: (ray ids, triangles, barycentric (H, 3)),
+    compiled (:mod:`mocap.local.raycast`) or, without numba, trimesh's ray caster."""
+    if HAVE_NUMBA:
+        ray, tri, _, bary = first_hits(verts, faces, origin, directions)
+        return ray, tri, bary
+    warn_once("raycast", "SIFT keypoints are cast onto the body by trimesh (~100x slower)")
+    mesh = trimesh.Trimesh(verts, faces, process=False)
+    loc, ray, tri = mesh.ray.intersects_location(np.repeat(np.asarray(origin)[None], len(directions), 0),
+                                                 directions, multiple_hits=False)
+    return ray, tri, trimesh.triangles.points_to_barycentric(mesh.triangles[tri], loc)
 
 
 @dataclass(frozen=True)
@@ -91,7 +107,6 @@ class SiftTracker:
         px, depth = project(self.small, verts, return_depth=True)
         masks = self.raster(px, h, w, depth, near=0.05)
         k = np.ones((3, 3), np.uint8)
-        mesh = trimesh.Trimesh(verts, self.body.faces, process=False)
         kept = []
         for c, cam in enumerate(self.rig):
             inner = cv2.erode(masks[c].astype(np.uint8), k, iterations=2)
@@ -109,12 +124,11 @@ class SiftTracker:
                 kept.append(0)
                 continue
             origin, direction = pixel_rays(cam, pts)
-            loc, ray, tri = mesh.ray.intersects_location(origin, direction, multiple_hits=False)
+            ray, tri, bary = surface_hits(verts, self.body.faces, cam.center, direction)
             if len(ray) == 0:
                 self.memory[c] = None
                 kept.append(0)
                 continue
-            bary = trimesh.triangles.points_to_barycentric(mesh.triangles[tri], loc)
             self.memory[c] = _Memory(desc[ray], tri.astype(np.int64), bary)
             kept.append(int(len(ray)))
         self._current = None
