@@ -28,6 +28,10 @@ import numpy as np
 from mocap.compiled import HAVE_NUMBA, njit, numba, prange  # noqa: F401  (numba: its config)
 from mocap.energy.fallback import warn_once
 from mocap.render import get_rasterizer
+from mocap.render._compiled import edge_kernel_arrays
+
+if HAVE_NUMBA:
+    from mocap.render._compiled import scan_edges
 
 _HV, _DIAG, _LONG = 65536, 91750, 143976        # cvRound(65536 * (1, 1.4f, 2.1969f))
 _INIT = 2**30       # 'far' (OpenCV: INT_MAX); any value > every real distance * 65536
@@ -92,21 +96,6 @@ if HAVE_NUMBA:
             total += np.float32(tmp[obs_r[k] + 2 - i0, obs_c[k] + 2 - j0]) * np.float32(1.0 / 65536.0)
         return total
 
-    @njit(cache=True)
-    def _contour_flags(orient, fwd, bwd, flag):
-        """flag[e] = 1 where edge e's weight sum_k orient[fwd[e, k]] - orient[bwd[e, k]] is
-        not 0. orient is int32 so that the K == 1 loop vectorises (AVX2 gathers)."""
-        E, K = fwd.shape
-        if K == 1:
-            for e in range(E):
-                flag[e] = orient[fwd[e, 0]] != orient[bwd[e, 0]]
-        else:
-            for e in range(E):
-                w = 0
-                for k in range(K):
-                    w += orient[fwd[e, k]] - orient[bwd[e, k]]
-                flag[e] = w != 0
-
     @njit(cache=True, fastmath={"reassoc"}, inline="always")
     def _add_row(acc, r, run, dt, c, j0, j1):
         """Next row r of the scan: run[j] += acc[r, j] (acc[r] cleared for the next
@@ -160,7 +149,6 @@ if HAVE_NUMBA:
         n_part = N // num_views
         F = faces.shape[0]
         E = ea.shape[0]
-        K = fwd.shape[1]
         bh_max = 1
         bw_max = 1
         for c in range(num_views):
@@ -182,70 +170,8 @@ if HAVE_NUMBA:
                 if not valid[c]:
                     out[n] = np.nan
                     continue
-                xs = x[n]
-                ys = y[n]
-                vs = vis[n]
-                allvis = True
-                for v in range(vs.shape[0]):
-                    if not vs[v]:
-                        allvis = False
-                        break
-                if allvis:
-                    for f in range(F):       # branchless: 3x faster than with the culling test
-                        a = faces[f, 0]
-                        x0 = xs[a]
-                        y0 = ys[a]
-                        lhs = (xs[faces[f, 1]] - x0) * (ys[faces[f, 2]] - y0)
-                        rhs = (ys[faces[f, 1]] - y0) * (xs[faces[f, 2]] - x0)
-                        orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
-                else:
-                    for f in range(F):
-                        a, b, d = faces[f, 0], faces[f, 1], faces[f, 2]
-                        if not (vs[a] and vs[b] and vs[d]):
-                            orient[f] = 0
-                            continue
-                        lhs = (xs[b] - xs[a]) * (ys[d] - ys[a])
-                        rhs = (ys[b] - ys[a]) * (xs[d] - xs[a])
-                        orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
-                orient[F] = 0
-                c_min = width
-                c_max = 0
-                r_min = height + 1
-                r_max = -1
-                # edges whose weight is not 0 (~10 %): flagged by a vectorised gather, then
-                # compacted without a branch (a branch per edge mispredicts on every contour
-                # edge), then scan-converted
-                _contour_flags(orient, fwd, bwd, flag)
-                n_live = 0
-                for e in range(E):
-                    live[n_live] = e
-                    n_live += flag[e]
-                for i_live in range(n_live):
-                    e = live[i_live]
-                    w = np.int64(0)                  # not 0: the flags kept only those
-                    for k in range(K):
-                        w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
-                    xa = xs[ea[e]]
-                    xb = xs[eb[e]]
-                    lo = np.ceil(min(max(min(xa, xb), 0.0), width))
-                    hi = np.ceil(min(max(max(xa, xb), 0.0), width))
-                    if hi == lo:
-                        continue
-                    if xa > xb:
-                        w = -w
-                    fxa = np.float64(xa)
-                    fya = np.float64(ys[ea[e]])
-                    slope = (np.float64(ys[eb[e]]) - fya) / (np.float64(xb) - fxa)
-                    j0 = int(lo)
-                    j1 = int(hi)
-                    c_min = min(c_min, j0)
-                    c_max = max(c_max, j1)
-                    for j in range(j0, j1):
-                        yc = (j - fxa) * slope + fya
-                        r = int(np.ceil(min(max(yc, 0.0), np.float64(height))))
-                        acc[r, j] += w
-                        r_min = min(r_min, r)
-                        r_max = max(r_max, r)
+                c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd, bwd,
+                                                        orient, flag, live, acc, height, width)
                 x0, y0, x1b, y1b = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
                 bh = y1b - y0
                 bw = x1b - x0
@@ -315,17 +241,7 @@ class FusedSilhouetteEnergy:
         if not HAVE_NUMBA:
             raise RuntimeError("the fused silhouette energy needs numba")
         edges = get_rasterizer(faces, num_vertices).edges         # built once per topology
-        # the narrowest index type: the kernel streams these arrays for every particle-view
-        big = max(int(num_vertices), len(faces) + 1)
-        # unsigned: numba then skips the negative-index wraparound on every gather
-        index = np.uint16 if big < 2**16 else np.uint32 if big < 2**32 else np.uint64
-        self.faces = np.ascontiguousarray(faces, dtype=index)
-        # both face tables padded to the same width K (with F, the always-0 slot)
-        k = max(edges.forward.shape[1], edges.backward.shape[1])
-        sides = [np.pad(t, ((0, 0), (0, k - t.shape[1])), constant_values=len(faces))
-                 for t in (edges.forward, edges.backward)]
-        self.edge_arrays = tuple(np.ascontiguousarray(a, dtype=index) for a in
-                                 (edges.a, edges.b, *sides))
+        self.faces, self.edge_arrays = edge_kernel_arrays(faces, edges, num_vertices)
         self.num_vertices = int(num_vertices)
         self._obs_key = None
 

@@ -6,7 +6,9 @@ coverage. The default ``method="scanline"`` computes that union exactly (nonzero
 the projected edges whose two faces project with opposite orientation, see
 :mod:`mocap.render._scanline`): no even-odd holes where triangles overlap and no
 approximation; 0.15-0.35 ms per 250 px view of the 10k-triangle body on one core
-(``benchmarks/bench_rasterizer.py``).
+(``benchmarks/bench_rasterizer.py``). Where numba imports, the same scan runs compiled per
+image (:mod:`mocap.render._compiled`, the fused silhouette energy's scan conversion; same
+masks pixel for pixel, tested; 1.7x faster for 8 views at 500 px).
 
 ``method="reference"`` (per-triangle pixel tests) gives the same masks slowly;
 ``method="opencv"`` loops ``cv2.fillConvexPoly``, whose masks are ~1 px fatter along the
@@ -26,6 +28,8 @@ from typing import Literal
 
 import numpy as np
 
+from mocap.compiled import HAVE_NUMBA
+from mocap.render._compiled import edge_kernel_arrays, rasterize_compiled
 from mocap.render._scanline import EdgeTable, rasterize_chunk
 from mocap.render.reference import rasterize_opencv, rasterize_reference
 from mocap.render.scaling import scale_pixels
@@ -61,6 +65,10 @@ class SilhouetteRasterizer:
         self.faces = _check_faces(faces, num_vertices)
         self.num_vertices = int(num_vertices)
         self.edges = EdgeTable.from_faces(self.faces, self.num_vertices)
+        # "scanline" runs compiled (mocap/render/_compiled.py, same masks) where numba imports;
+        # set False for the vectorised numpy scanline
+        self.compiled = HAVE_NUMBA
+        self._kernel_arrays = edge_kernel_arrays(self.faces, self.edges, self.num_vertices)
 
     def __call__(self, pixels: np.ndarray, height: int, width: int,
                  depth: np.ndarray | None = None, *, near: float = 0.0, scale: float = 1.0,
@@ -131,6 +139,13 @@ class SilhouetteRasterizer:
     def _scanline(self, pts: np.ndarray, vis: np.ndarray | None, out: np.ndarray,
                   threads: int) -> None:
         n, height, width = out.shape
+        if self.compiled and out.flags.c_contiguous:
+            if vis is None:
+                vis = np.ones(pts.shape[:2], bool)
+            faces, edges = self._kernel_arrays
+            rasterize_compiled(np.ascontiguousarray(pts[..., 0]), np.ascontiguousarray(pts[..., 1]),
+                               np.ascontiguousarray(vis), faces, edges, height, width, out, threads)
+            return
         chunk = max(1, min(_CHUNK_PIXELS // ((height + 1) * width),
                            _CHUNK_FACES // max(1, len(self.faces))))
         if threads > 1:

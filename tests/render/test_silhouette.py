@@ -271,3 +271,30 @@ def test_huge_coordinates_are_clipped_without_overflow():
     np.testing.assert_array_equal(
         mask, rasterize_silhouettes(pixels, faces, 40, 50, method="reference")[0])
     assert mask.any()
+
+
+@pytest.mark.skipif(not __import__("mocap.compiled", fromlist=["HAVE_NUMBA"]).HAVE_NUMBA,
+                    reason="numba is not installed")
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_compiled_scanline_equals_the_numpy_scanline_pixel_for_pixel(body_views, dtype):
+    """The compiled kernel (mocap/render/_compiled.py) and the vectorised numpy scanline give
+    the same masks: whole body, body partly outside the image, triangles culled behind the
+    near plane, downscaled, a mesh with duplicated faces (K = 2 edge table), several threads."""
+    px = body_views["pixels"].astype(dtype)
+    depth = body_views["depth"]
+    faces = body_views["faces"]
+    shifted = px + np.array([260.0, -140.0], dtype)            # partly outside the image
+    culled_depth = depth.copy()
+    culled_depth[..., ::50] = 0.01                               # every 50th vertex behind near
+    doubled = np.concatenate([faces, faces[:300]])
+    cases = [(px, faces, None, 1.0, 1), (shifted, faces, None, 1.0, 1),
+             (px, faces, culled_depth, 1.0, 1), (px, faces, depth, 0.37, 2),
+             (px, doubled, None, 1.0, 3)]
+    for pixels, f, d, scale, threads in cases:
+        fast = SilhouetteRasterizer(f, pixels.shape[-2])
+        slow = SilhouetteRasterizer(f, pixels.shape[-2])
+        slow.compiled = False
+        a = fast(pixels, 500, 500, d, near=0.05, scale=scale, threads=threads)
+        b = slow(pixels, 500, 500, d, near=0.05, scale=scale, threads=threads)
+        assert a.any()
+        np.testing.assert_array_equal(a, b)
