@@ -52,8 +52,9 @@ TRACKERS = {
     "apf_25x10": ("apf_25x10", [], False),
     "apf": ("apf", [], False),
     "hybrid": ("hybrid", ["+tracker.local.sift.enabled=false"], False),
-    "apf_prior_mesh2000": ("apf_prior", ["+tracker.energy_mesh=2000"], False),
-    "apf_mesh2000": ("apf", ["+tracker.energy_mesh=2000"], False),
+    # the full 10k-triangle mesh in the silhouette energy (the default before the energy mesh)
+    "apf_prior_full": ("apf_prior", ["+tracker.energy_mesh=null"], False),
+    "apf_full": ("apf", ["+tracker.energy_mesh=null"], False),
 }
 
 

@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from mocap.body.energy_mesh import energy_mesh_for
+from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
@@ -34,7 +34,8 @@ class APFTracker(AnnealedStep, SilhouetteInitialisation):
                  rng: np.random.Generator, prior: PosePrior | None = None, scale: float = 0.25,
                  init_std: Sequence[float] = (0.03, 0.03, 0.08), prediction_damping: float = 1.0,
                  keep_particles: bool = False, name: str = "apf",
-                 initialization: Mapping | None = None, energy_mesh: int | None = None):
+                 initialization: Mapping | None = None,
+                 energy_mesh: int | None = ENERGY_MESH_FACES):
         self.body, self.rig, self.settings, self.weights = body, rig, settings, weights
         self.rng, self.prior, self.scale, self.name = rng, prior, scale, name
         self.std0 = diffusion_std(body, *init_std)

@@ -67,7 +67,8 @@ def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, nam
     min_std_fraction, estimate) go to :class:`APFSettings`, energy weights to
     :class:`EnergyWeights`, prior options to :func:`make_pose_prior`, the rest (init_std,
     prediction_damping, keep_particles, initialization, energy_mesh: the silhouette energy
-    rasterises the body decimated to that many triangles, None the full mesh) to
+    rasterises the body decimated to that many triangles, default
+    :data:`~mocap.body.energy_mesh.ENERGY_MESH_FACES`, None the full mesh) to
     :class:`APFTracker`; every default is theirs. resolution: internal silhouette resolution,
     px of the longer image side."""
     options = dict(options)
@@ -158,7 +159,7 @@ def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     weights, pose_prior = _energy(body, a.pop("energy", None), prior)
     scale = internal_scale(rig, a.pop("resolution", 256))
     extra = {k: a.pop(k) for k in ("refine_iterations", "restart", "restart_from_library", "patrol",
-                                    "energy_mesh") if k in a}
+                                    "patrol_agreement", "patrol_margin", "energy_mesh") if k in a}
     if extra.get("restart_from_library"):
         # the restarts' motion library: the pose prior's training poses, and their mirror images
         path = prior.get("prior_file") or default_prior_path(body.name)

@@ -6,7 +6,7 @@ import pytest
 import trimesh
 from scipy.stats import spearmanr
 
-from mocap.body.energy_mesh import energy_mesh_for, make_energy_mesh
+from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for, make_energy_mesh
 from mocap.cameras import ring_rig
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 
@@ -96,6 +96,9 @@ def test_apf_trackers_take_the_option(body):
     assert apf.energy.mesh is not None and len(apf.energy.mesh.faces) <= 1000
     hybrid = make_hybrid_tracker(body=body, rig=rig, rng=rng, apf={"energy_mesh": 1000})
     assert hybrid.energy_mesh is apf.energy.mesh          # built once per body and size
-    plain = make_apf_tracker(body=body, rig=rig, rng=rng, particles=4, layers=1)
-    plain.initialize(body.zero_pose(), np.zeros(body.num_shape))
-    assert plain.energy.mesh is None
+    default = make_apf_tracker(body=body, rig=rig, rng=rng, particles=4, layers=1)
+    default.initialize(body.zero_pose(), np.zeros(body.num_shape))
+    assert len(default.energy.mesh.faces) <= ENERGY_MESH_FACES == 2000
+    full = make_apf_tracker(body=body, rig=rig, rng=rng, particles=4, layers=1, energy_mesh=None)
+    full.initialize(body.zero_pose(), np.zeros(body.num_shape))
+    assert full.energy.mesh is None and len(full.energy.rasterizer.faces) == len(body.faces)
