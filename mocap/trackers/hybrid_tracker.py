@@ -15,7 +15,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from mocap.body.energy_mesh import energy_mesh_for
+from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
@@ -98,7 +98,8 @@ class HybridTracker(LocalTracker):
                  init_std: tuple[float, float, float] = (0.03, 0.03, 0.25),
                  refine_iterations: int = 3, keep_particles: bool = False, name: str = "hybrid",
                  restart: float = 0.0, library: np.ndarray | None = None, restart_from_library: float = 0.0,
-                 patrol: int = 0, energy_mesh: int | None = None, **local: Mapping):
+                 patrol: int = 0, patrol_agreement: float = 0.0, patrol_margin: float = 0.0,
+                 energy_mesh: int | None = ENERGY_MESH_FACES, **local: Mapping):
         super().__init__(body, rig, name=name, rng=rng, **local)
         self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
         self.scale, self.std0 = scale, diffusion_std(body, *init_std)
@@ -108,6 +109,10 @@ class HybridTracker(LocalTracker):
         if patrol < 0:
             raise ValueError(f"patrol must be >= 0 frames, got {patrol}")
         self.patrol = int(patrol)
+        if not 0.0 <= patrol_agreement <= 1.0 or not 0.0 <= patrol_margin < 1.0:
+            raise ValueError(f"patrol_agreement must be in [0, 1] and patrol_margin in [0, 1), got "
+                             f"{patrol_agreement} and {patrol_margin}")
+        self.patrol_agreement, self.patrol_margin = float(patrol_agreement), float(patrol_margin)
         self.chains = limb_chains(body)
         self.energy_mesh = energy_mesh_for(body, energy_mesh)   # None: the full mesh
 
@@ -160,8 +165,15 @@ class HybridTracker(LocalTracker):
                 chi, refine = self.local_step(frame, chi_apf)
             finally:
                 self.iterations = refine_iters
-            e_local, e_apf = self.sil(np.stack([chi_local, chi]), target)
+            per_view = self.sil.per_view(np.stack([chi_local, chi]), target)[:, target.valid]
+            e_local, e_apf = per_view.mean(axis=1)
             accepted = bool(e_apf < e_local)
+            if patrol is not None:
+                # a patrolled limb was not flagged: keep the search's pose only where it
+                # explains the silhouettes better by a margin and in enough of the views
+                agree = float(np.mean(per_view[1] < per_view[0]))
+                accepted = accepted and e_apf < (1.0 - self.patrol_margin) * e_local \
+                    and agree >= self.patrol_agreement
             if not accepted:
                 chi = chi_local
             terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}
