@@ -135,3 +135,29 @@ def test_shape_initialisation_is_closer_to_the_truth_than_the_mean_shape(body):
     assert err(est_v, true_v) < err(mean_v, true_v)
     assert err(est_j, true_j) < err(mean_j, true_j)
     assert np.all(np.isfinite(chi)) and len(diag["heading_energy"]) == 12
+
+
+@pytest.mark.parametrize("dtype", ["body", "body64"])
+def test_compiled_contour_generator_equals_the_numpy_one(dtype, request, monkeypatch):
+    """The compiled contour generator (one pass over faces and edges per view) gives the numpy
+    path's vertex sets, view for view, on random poses and shapes."""
+    from mocap.local import contour
+
+    pytest.importorskip("numba")
+    b = request.getfixturevalue(dtype)
+    rig = ring_rig(6, 3.5, 1.5, 200, 200, fov_deg=50, look_at=(0, 0, 0.9))
+    matcher = ContourMatcher(b, rig)
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        chi = b.zero_pose()
+        chi[6:] = rng.normal(0, 0.4, b.num_dofs - 6)
+        chi[:3] = rng.normal(0, 0.2, 3)
+        chi = np.clip(chi, b.limits[:, 0], b.limits[:, 1]).astype(b.dtype)
+        verts = b.shaped(rng.normal(size=b.num_shape)).pose(chi).vertices[0]
+        compiled = matcher.contour_vertices(verts, rig.centers)
+        monkeypatch.setattr(contour, "HAVE_NUMBA", False)
+        reference = matcher.contour_vertices(verts, rig.centers)
+        monkeypatch.undo()
+        assert all(len(a) > 50 for a in compiled)
+        for a, r in zip(compiled, reference, strict=True):
+            np.testing.assert_array_equal(a, r)
