@@ -172,8 +172,8 @@ class HybridTracker(LocalTracker):
                 # a patrolled limb was not flagged: keep the search's pose only where it
                 # explains the silhouettes better by a margin and in enough of the views
                 agree = float(np.mean(per_view[1] < per_view[0]))
-                accepted = accepted and e_apf < (1.0 - self.patrol_margin) * e_local \
-                    and agree >= self.patrol_agreement
+                accepted = bool(accepted and e_apf < (1.0 - self.patrol_margin) * e_local
+                                and agree >= self.patrol_agreement)
             if not accepted:
                 chi = chi_local
             terms = {k: float(v[0]) for k, v in energy.terms(chi[None]).items()}

@@ -289,3 +289,26 @@ def test_patrol_searches_one_chain_in_turn_when_nothing_is_flagged(body, seq):
     with pytest.raises(ValueError, match="patrol"):
         make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
                      apf={**APF, "patrol": -1})
+
+
+def test_patrol_keeps_a_search_only_with_the_margin_and_the_views_agreeing(body, seq):
+    """A patrolled chain (not flagged) keeps the APF's pose only where E_S falls by more than
+    patrol_margin and in at least patrol_agreement of the views: with a margin no search can
+    pass, every patrol is searched and rejected, and the track is the local tracker's, frame
+    for frame; out-of-range settings are refused."""
+    check = {"threshold": 1.5, "unexplained": 0.0}                 # never fires
+    strict = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                          local={**LOCAL, "misalignment": check},
+                          apf={**APF, "patrol": 1, "patrol_agreement": 1.0, "patrol_margin": 0.999})
+    quiet = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                         local={**LOCAL, "misalignment": check}, apf={**APF, "patrol": 0})
+    rs, rq = (track_sequence(t, seq, seq.gt.chi[0], seq.gt.alpha) for t in (strict, quiet))
+    for e in rs.estimates[1:]:
+        m = e.diagnostics.misalignment
+        assert m.patrol is True and m.apf_called is True and m.apf_accepted is False
+    np.testing.assert_array_equal(np.stack([e.chi for e in rs.estimates]),
+                                  np.stack([e.chi for e in rq.estimates]))
+    for bad in ({"patrol_agreement": 1.5}, {"patrol_margin": -0.1}, {"patrol_margin": 1.0}):
+        with pytest.raises(ValueError, match="patrol_agreement"):
+            make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                         apf={**APF, "patrol": 1, **bad})
