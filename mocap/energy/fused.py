@@ -31,7 +31,7 @@ from mocap.render import get_rasterizer
 from mocap.render._compiled import edge_kernel_arrays
 
 if HAVE_NUMBA:
-    from mocap.render._compiled import scan_edges
+    from mocap.render._compiled import scan_buffers, scan_edges
 
 _HV, _DIAG, _LONG = 65536, 91750, 143976        # cvRound(65536 * (1, 1.4f, 2.1969f))
 _INIT = 2**30       # 'far' (OpenCV: INT_MAX); any value > every real distance * 65536
@@ -155,11 +155,7 @@ if HAVE_NUMBA:
             bh_max = max(bh_max, boxes[c, 3] - boxes[c, 1])
             bw_max = max(bw_max, boxes[c, 2] - boxes[c, 0])
         for t in prange(nthreads):
-            orient = np.zeros(F + 1, np.int32)
-            acc = np.zeros((height + 1, width), np.int32)
-            run = np.zeros(width, np.int32)
-            live = np.empty(E, np.int32)
-            flag = np.empty(E, np.uint8)
+            orient, acc, run, live, flag = scan_buffers(F, E, height, width)
             tmp = np.empty((bh_max + 4, bw_max + 4), np.int32)
             win = np.empty((bh_max + 4, bw_max + 4), np.int32)
             # view-major order: a thread runs the particles of one view in a row, so that

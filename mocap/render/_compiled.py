@@ -32,6 +32,14 @@ if HAVE_NUMBA:
                 flag[e] = w != 0
 
     @njit(cache=True, inline="always")
+    def scan_buffers(num_faces, num_edges, height, width):
+        """Work arrays of :func:`scan_edges` and the row sums, one set per thread: orient,
+        acc (zeroed), run (the running column sums), live, flag."""
+        return (np.zeros(num_faces + 1, np.int32), np.zeros((height + 1, width), np.int32),
+                np.zeros(width, np.int32), np.empty(num_edges, np.int32),
+                np.empty(num_edges, np.uint8))
+
+    @njit(cache=True, inline="always")
     def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, acc, height, width):
         """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
         near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
@@ -111,11 +119,7 @@ if HAVE_NUMBA:
         F = faces.shape[0]
         E = ea.shape[0]
         for t in prange(nthreads):
-            orient = np.zeros(F + 1, np.int32)
-            acc = np.zeros((height + 1, width), np.int32)
-            run = np.zeros(width, np.int32)
-            live = np.empty(E, np.int32)
-            flag = np.empty(E, np.uint8)
+            orient, acc, run, live, flag = scan_buffers(F, E, height, width)
             for n in range(t, N, nthreads):
                 mask = out[n]
                 mask[:, :] = False
