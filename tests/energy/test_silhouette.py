@@ -74,3 +74,22 @@ def test_particle_outside_every_view_gets_a_finite_penalty(setup):
     far[0, 0] += 50.0
     e = energy(far, target)[0]
     assert np.isfinite(e) and e > 100
+
+
+def test_downscaled_masks_follow_the_area_rule_for_bool_and_byte_masks():
+    """A pixel of the downscaled mask is set when at least half of the area it covers is
+    (OpenCV's INTER_AREA of the 0/255 image, >= 128), whatever the masks' type and layout."""
+    import cv2
+
+    from mocap.energy.silhouette import downscale_masks
+
+    rng = np.random.default_rng(4)
+    masks = rng.random((3, 301, 403)) < 0.5
+    masks[:, 100:200, 150:300] = True
+    want = np.stack([cv2.resize(m.astype(np.uint8) * 255, (103, 77), interpolation=cv2.INTER_AREA) >= 128
+                     for m in masks])
+    scale = 103 / 403
+    for given in (masks, masks.astype(np.uint8) * 255, np.asfortranarray(masks)):
+        got = downscale_masks(given, scale)
+        assert got.shape == want.shape
+        np.testing.assert_array_equal(got, want)
