@@ -102,3 +102,16 @@ def test_apf_trackers_take_the_option(body):
     full = make_apf_tracker(body=body, rig=rig, rng=rng, particles=4, layers=1, energy_mesh=None)
     full.initialize(body.zero_pose(), np.zeros(body.num_shape))
     assert full.energy.mesh is None and len(full.energy.rasterizer.faces) == len(body.faces)
+
+
+def test_energy_mesh_gives_the_same_energies_on_the_numpy_and_compiled_paths(body):
+    pytest.importorskip("numba")
+    rig = ring_rig(4, 3.5, 1.5, 160, 120, fov_deg=50, look_at=(0, 0, 0.9))
+    sb = body.shaped()
+    mesh = energy_mesh_for(body, 2000)
+    compiled = SilhouetteEnergy(sb, rig, scale=1.0, backend="numba", mesh=mesh)
+    numpy_path = SilhouetteEnergy(sb, rig, scale=1.0, backend="numpy", mesh=mesh)
+    target = silhouette_target(compiled.model_masks(sb.pose(body.zero_pose(1)).vertices)[0], 1.0)
+    chi = random_poses(body, 8, 0.3, seed=9)
+    np.testing.assert_allclose(compiled.per_view(chi, target), numpy_path.per_view(chi, target),
+                               rtol=1e-5, atol=1e-5)
