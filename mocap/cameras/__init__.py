@@ -26,6 +26,7 @@ from mocap.cameras.camera import (
     as_rig,
     rodrigues_from_rotation,
     rotation_from_rodrigues,
+    view_rigs,
 )
 from mocap.cameras.projection import (
     distort_normalized,
@@ -54,6 +55,7 @@ __all__ = [
     "InvalidCameraError",
     "Rig",
     "as_rig",
+    "view_rigs",
     "distort_normalized",
     "epipolar_distance",
     "fundamental_matrices",

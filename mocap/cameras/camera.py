@@ -333,6 +333,13 @@ def as_rig(cameras: Rig | Camera | Sequence[Camera]) -> Rig:
     return Rig(tuple(cameras))
 
 
+def view_rigs(rig: Rig) -> tuple[Rig, ...]:
+    """One-camera rigs of ``rig``'s views, for code that projects or undistorts view by view
+    (build once: a rig is validated on construction, which costs more than projecting or
+    undistorting a view's points, and passing a :class:`Camera` builds one on every call)."""
+    return tuple(as_rig(cam) for cam in rig)
+
+
 # --- rotations (pure numpy, batched) --------------------------------------------------------
 
 

@@ -43,7 +43,7 @@ import numpy as np
 from mocap.body.kinematics import chain_transforms
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import ShapedBody
-from mocap.cameras import Rig, as_rig, fundamental_matrices, undistort_points
+from mocap.cameras import Rig, fundamental_matrices, undistort_points
 from mocap.data.sequence import Detections
 from mocap.energy.fallback import warn_once
 
@@ -84,12 +84,6 @@ class MarkerObservation:
         return self.valid.any(axis=2).sum(axis=1)
 
 
-def view_rigs(rig: Rig) -> tuple[Rig, ...]:
-    """One-camera rigs of ``rig``'s views, for :func:`arrange_detections` (build once: a
-    rig is validated on construction, which costs more than undistorting a view's points)."""
-    return tuple(as_rig(cam) for cam in rig)
-
-
 def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
                        min_confidence: float = 0.0,
                        views: Sequence[Rig] | None = None) -> MarkerObservation:
@@ -98,7 +92,7 @@ def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
     A labelled detection goes to the landmark of the same name (labels the tracker does not
     fit are dropped); an unlabelled one (label -1) to every landmark. Detections below
     ``min_confidence`` are dropped. Distortion is removed with the rig's model, view by view
-    (``views``: :func:`view_rigs` of ``rig``, built once by a caller that arranges every
+    (``views``: :func:`~mocap.cameras.view_rigs` of ``rig``, built once by a caller that arranges every
     frame; the same numbers as undistorting with ``rig[c]``).
     """
     names = list(landmark_names)

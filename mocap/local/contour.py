@@ -24,7 +24,7 @@ import numpy as np
 import trimesh
 
 from mocap.body.model import BodyModel
-from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project
+from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project, view_rigs
 from mocap.compiled import HAVE_NUMBA, njit
 from mocap.local.nearest import NearestPoints
 from mocap.local.solver import PointLines
@@ -123,9 +123,7 @@ class ContourMatcher:
         self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
         self.max_distance_px = max_distance * float(rig.sizes[0][1])
         self.stride, self.observed_stride = stride, observed_stride
-        # one-camera rigs built once: projecting with a Camera builds (and validates) a rig
-        # on every call, 16 per iteration
-        self.view_rigs = [rig[[c]] for c in range(len(rig))]
+        self.view_rigs = view_rigs(rig)        # 16 projections / back-projections per iteration
 
     def contour_vertices(self, verts: np.ndarray, centers: np.ndarray) -> list[np.ndarray]:
         """Vertex ids on the contour generator seen from each camera centre (C, 3)."""

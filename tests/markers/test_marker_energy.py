@@ -151,8 +151,7 @@ def test_arranging_with_prebuilt_view_rigs_is_the_same_with_distortion(body):
     with lens distortion (the iterative inverse)."""
     from dataclasses import replace as dc_replace
 
-    from mocap.cameras import Rig
-    from mocap.energy.markers import view_rigs
+    from mocap.cameras import Rig, view_rigs
 
     base = ring_rig(3, 3.5, 1.6, 640, 480, fov_deg=50, look_at=(0, 0, 0.9))
     dist = np.array([-0.2, 0.05, 0.001, -0.002, 0.0])

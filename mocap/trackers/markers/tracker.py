@@ -24,7 +24,7 @@ from mocap.body.catalogue import dof_moves, make_landmark_set, rest_point_basis,
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.root_motion import predict_root
-from mocap.cameras import Rig, fundamental_matrices
+from mocap.cameras import Rig, fundamental_matrices, view_rigs
 from mocap.data.openpose import capture_centre
 from mocap.energy.markers import (
     MarkerEnergy,
@@ -32,7 +32,6 @@ from mocap.energy.markers import (
     MarkerObservation,
     arrange_detections,
     reprojection_errors,
-    view_rigs,
     views_near,
 )
 from mocap.trackers.apf import APFSettings
