@@ -43,28 +43,28 @@ class EnergyMesh:
     def num_vertices(self) -> int:
         return len(self.index)
 
-    def apply(self, vertices: np.ndarray) -> np.ndarray:
-        """(..., V, 3) full-mesh vertices -> (..., V', 3) coarse vertices (same dtype)."""
-        vertices = np.asarray(vertices)
-        if vertices.shape[-2] != self.num_source:
-            raise ValueError(f"the energy mesh reads meshes of {self.num_source} vertices, "
-                             f"got {vertices.shape[-2]}")
-        w = self.weight.astype(vertices.dtype, copy=False)
-        out = vertices[..., self.index[:, 0], :] * w[:, 0, None]
+    def _blend(self, a: np.ndarray, axis: int) -> np.ndarray:
+        """sum_k weight[:, k] * a[..., index[:, k], ...] along ``axis`` (the full mesh's
+        vertices, num_source long) -> the same array with V' coarse vertices on that axis."""
+        if a.shape[axis] != self.num_source:
+            raise ValueError(f"the energy mesh reads {self.num_source} vertices, got {a.shape[axis]}")
+        w = self.weight.astype(a.dtype, copy=False)
+        shape = [1] * a.ndim
+        shape[axis] = -1
+        out = np.take(a, self.index[:, 0], axis=axis) * w[:, 0].reshape(shape)
         for k in (1, 2):
-            out += vertices[..., self.index[:, k], :] * w[:, k, None]
+            out += np.take(a, self.index[:, k], axis=axis) * w[:, k].reshape(shape)
         return out
 
+    def apply(self, vertices: np.ndarray) -> np.ndarray:
+        """(..., V, 3) full-mesh vertices -> (..., V', 3) coarse vertices (same dtype)."""
+        return self._blend(np.asarray(vertices), axis=-2)
 
     def skinning_basis(self, basis_t: np.ndarray) -> np.ndarray:
         """The full mesh's skinning basis (4J, V) -> the coarse mesh's (4J, V'). Skinning is
         linear in the basis, so posing with it equals :meth:`apply` on the posed full mesh
         without posing the full mesh."""
-        if basis_t.shape[-1] != self.num_source:
-            raise ValueError(f"the energy mesh reads {self.num_source} vertices, got a basis of "
-                             f"{basis_t.shape[-1]}")
-        w = self.weight.astype(basis_t.dtype, copy=False)
-        return np.ascontiguousarray(sum(basis_t[:, self.index[:, k]] * w[:, k] for k in range(3)))
+        return np.ascontiguousarray(self._blend(basis_t, axis=-1))
 
 
 def make_energy_mesh(vertices: np.ndarray, faces: np.ndarray, num_faces: int) -> EnergyMesh:
@@ -90,7 +90,8 @@ def _cached(model, num_faces: int) -> EnergyMesh:
 
 def energy_mesh_for(model, num_faces: int | None) -> EnergyMesh | None:
     """The energy mesh of a :class:`~mocap.body.model.BodyModel` with ``num_faces`` triangles
-    (built once per model and face count), or None for ``num_faces`` None / 0 (full mesh)."""
+    (built once per model and face count), or None (the full mesh) for ``num_faces`` None / 0
+    or at least the body's own triangle count."""
     if not num_faces:
         return None
     if int(num_faces) >= len(model.faces):

@@ -28,7 +28,6 @@ import numpy as np
 from mocap.compiled import HAVE_NUMBA, njit, numba, prange  # noqa: F401  (numba: its config)
 from mocap.energy.fallback import warn_once
 from mocap.render import get_rasterizer
-from mocap.render._compiled import edge_kernel_arrays
 
 if HAVE_NUMBA:
     from mocap.render._compiled import scan_buffers, scan_edges
@@ -236,8 +235,8 @@ class FusedSilhouetteEnergy:
     def __init__(self, faces: np.ndarray, num_vertices: int):
         if not HAVE_NUMBA:
             raise RuntimeError("the fused silhouette energy needs numba")
-        edges = get_rasterizer(faces, num_vertices).edges         # built once per topology
-        self.faces, self.edge_arrays = edge_kernel_arrays(faces, edges, num_vertices)
+        # the cached rasterizer of this topology holds them, built once
+        self.faces, self.edge_arrays = get_rasterizer(faces, num_vertices).kernel_arrays
         self.num_vertices = int(num_vertices)
         self._obs_key = None
 

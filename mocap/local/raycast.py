@@ -139,7 +139,7 @@ def _frame(dirs: np.ndarray) -> np.ndarray:
 
 
 def first_hits(vertices: np.ndarray, faces: np.ndarray, origin: np.ndarray, directions: np.ndarray,
-               grid: int = 48) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               grid: int = 48) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Nearest hit of each ray origin + t d (t > 0) on the mesh.
 
     vertices (V, 3), faces (F, 3), origin (3,), directions (M, 3) (any length). Returns

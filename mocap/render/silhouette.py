@@ -68,7 +68,8 @@ class SilhouetteRasterizer:
         # "scanline" runs compiled (mocap/render/_compiled.py, same masks) where numba imports;
         # set False for the vectorised numpy scanline
         self.compiled = HAVE_NUMBA
-        self._kernel_arrays = edge_kernel_arrays(self.faces, self.edges, self.num_vertices)
+        # the faces and edge table as the compiled kernels read them (the fused energy too)
+        self.kernel_arrays = edge_kernel_arrays(self.faces, self.edges, self.num_vertices)
 
     def __call__(self, pixels: np.ndarray, height: int, width: int,
                  depth: np.ndarray | None = None, *, near: float = 0.0, scale: float = 1.0,
@@ -142,7 +143,7 @@ class SilhouetteRasterizer:
         if self.compiled and out.flags.c_contiguous:
             if vis is None:
                 vis = np.ones(pts.shape[:2], bool)
-            faces, edges = self._kernel_arrays
+            faces, edges = self.kernel_arrays
             rasterize_compiled(np.ascontiguousarray(pts[..., 0]), np.ascontiguousarray(pts[..., 1]),
                                np.ascontiguousarray(vis), faces, edges, height, width, out, threads)
             return
