@@ -29,6 +29,7 @@ from mocap.cameras.camera import (
     view_rigs,
 )
 from mocap.cameras.projection import (
+    camera_coordinates,
     distort_normalized,
     epipolar_distance,
     fundamental_matrices,
@@ -55,6 +56,7 @@ __all__ = [
     "InvalidCameraError",
     "Rig",
     "as_rig",
+    "camera_coordinates",
     "view_rigs",
     "distort_normalized",
     "epipolar_distance",

@@ -95,6 +95,25 @@ def undistort_normalized(
 # --- projection ------------------------------------------------------------------------------
 
 
+def camera_coordinates(rig: Rig, points: np.ndarray) -> np.ndarray:
+    """World points (..., N, 3) -> camera coordinates (..., C, 3, N) in every view of ``rig``
+    (``R @ x + t``; rows x, y, z contiguous), float32 for float32 points, else float64.
+
+    The first step of :func:`project`; the compiled silhouette energy takes it from here and
+    finishes the projection per particle-view with :func:`project`'s arithmetic."""
+    pts = np.asarray(points)
+    if pts.ndim < 2 or pts.shape[-1] != 3:
+        raise ValueError(f"points must have shape (N, 3) or (P, N, 3), got {pts.shape}")
+    dtype = np.result_type(pts.dtype, np.float32)
+    pts = pts.astype(dtype, copy=False)
+    R = rig.R.astype(dtype)
+    t = rig.t.astype(dtype)
+    # (C, 3, 3) @ (..., 1, 3, N) -> (..., C, 3, N): camera coordinates, rows contiguous.
+    X = R @ np.swapaxes(pts, -1, -2)[..., None, :, :]
+    X += t[:, :, None]
+    return X
+
+
 def project(
     cameras: CameraLike, points: np.ndarray, return_depth: bool = False
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
@@ -113,16 +132,8 @@ def project(
     """
     single = isinstance(cameras, Camera)
     rig = as_rig(cameras)
-    pts = np.asarray(points)
-    if pts.ndim < 2 or pts.shape[-1] != 3:
-        raise ValueError(f"points must have shape (N, 3) or (P, N, 3), got {pts.shape}")
-    dtype = np.result_type(pts.dtype, np.float32)
-    pts = pts.astype(dtype, copy=False)
-    R = rig.R.astype(dtype)
-    t = rig.t.astype(dtype)
-    # (C, 3, 3) @ (..., 1, 3, N) -> (..., C, 3, N): camera coordinates, rows contiguous.
-    X = R @ np.swapaxes(pts, -1, -2)[..., None, :, :]
-    X += t[:, :, None]
+    X = camera_coordinates(rig, points)
+    dtype = X.dtype
     z = X[..., 2, :]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv_z = np.reciprocal(z)

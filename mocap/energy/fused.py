@@ -2,6 +2,9 @@
 
 Per particle-view the kernel
 
+0. finishes the projection of the mesh's camera coordinates (divide by depth, distortion,
+   intrinsics: :func:`mocap.cameras.project`'s arithmetic, the same pixels bit for bit) into
+   per-thread buffers, so no (P, C, V, 2) pixel array is written and re-read;
 1. orients the projected triangles and weights the mesh edges exactly like the scanline
    rasterizer (:mod:`mocap.render._scanline`: nonzero winding of the contour edges, same
    float arithmetic, same pixel-centre rule, same depth culling), scan-converts the edges
@@ -134,18 +137,67 @@ if HAVE_NUMBA:
             seeds += inside
         return seeds
 
+    @njit(cache=True, inline="always")
+    def project_view(X, cam, dist, has_dist, has_skew, xs, ys, vs):
+        """Camera coordinates X (3, V) of one view -> pixels xs, ys (V,) and vs (V,) = z > near,
+        with the float operations of :func:`mocap.cameras.project` in X's dtype and in its
+        order (no FMA contraction without fastmath), so the same pixels bit for bit
+        (tested). cam: (fx, skew, cx, fy, cy, 1, 2, near) and dist (k1, k2, p1, p2, k3) in
+        X's dtype; has_dist / has_skew: whether the rig has any distortion / skew (project
+        takes those terms for every view then). Pixels of vertices behind the near plane are
+        0 (never read: their faces are culled). Returns how many vertices in front have a
+        pixel that is not finite."""
+        fx, sk, cx, fy, cy, one, two, near = (cam[0], cam[1], cam[2], cam[3], cam[4], cam[5],
+                                               cam[6], cam[7])
+        k1, k2, p1, p2, k3 = dist[0], dist[1], dist[2], dist[3], dist[4]
+        bad = 0
+        for v in range(X.shape[1]):
+            z = X[2, v]
+            front = z > near
+            vs[v] = front
+            if not front:
+                xs[v] = 0
+                ys[v] = 0
+                continue
+            iz = one / z
+            x = X[0, v] * iz
+            y = X[1, v] * iz
+            if has_dist:
+                x2 = x * x
+                y2 = y * y
+                xy = x * y
+                r2 = x2 + y2
+                radial = one + r2 * (k1 + r2 * (k2 + r2 * k3))
+                xd = x * radial + two * p1 * xy + p2 * (r2 + two * x2)
+                y = y * radial + p1 * (r2 + two * y2) + two * p2 * xy
+                x = xd
+            u = fx * x + cx
+            if has_skew:
+                u = u + sk * y
+            w = fy * y + cy
+            if not (np.isfinite(u) and np.isfinite(w)):
+                bad += 1
+                u = 0
+                w = 0
+            xs[v] = u
+            ys[v] = w
+        return bad
+
     @njit(cache=True, parallel=True)
-    def _fused_energy(x, y, vis, faces, ea, eb, fwd, bwd, dt, boxes, valid, area, obs_r, obs_c,
-                      obs_start, obs_box, num_views, height, width, penalty, nthreads, out):
-        """x, y: (N, V) pixel coordinates of N = P * C particle-views (view = n % C);
-        vis: (N, V) bool vertex in front of the near plane; faces (F, 3); ea, eb (E,) edge
+    def _fused_energy(X, cam, dist, has_dist, has_skew, faces, ea, eb, fwd, bwd, dt, boxes, valid,
+                      area, obs_r, obs_c, obs_start, obs_box, num_views, height, width, penalty,
+                      nthreads, out, bad):
+        """X: (P, C, 3, V) camera coordinates of the P * C particle-views, projected here
+        (:func:`project_view`; cam (C, 8), dist (C, 5), has_dist, has_skew its parameters);
+        bad (nthreads,): vertices in front with a pixel not finite; faces (F, 3); ea, eb (E,) edge
         vertices; fwd, bwd (E, K) faces on either side (both padded with F to one K); dt
         (C, h, w) float32 observed distance transforms; boxes (C, 4) x0 y0 x1 y1; valid (C,); area (C,);
         obs_r, obs_c: observed pixels (box coordinates) of view c in
         obs_start[c]:obs_start[c + 1]; obs_box (C, 4): their row and column ranges (r0, r1,
-        c0, c1) in the box. out: (N,) energies (NaN for invalid views)."""
-        N = x.shape[0]
-        n_part = N // num_views
+        c0, c1) in the box. out: (P * C,) energies (NaN for invalid views)."""
+        n_part = X.shape[0]
+        N = n_part * num_views
+        V = X.shape[3]
         F = faces.shape[0]
         E = ea.shape[0]
         bh_max = 1
@@ -155,17 +207,22 @@ if HAVE_NUMBA:
             bw_max = max(bw_max, boxes[c, 2] - boxes[c, 0])
         for t in prange(nthreads):
             orient, acc, run, live, flag = scan_buffers(F, E, height, width)
+            xs = np.empty(V, X.dtype)
+            ys = np.empty(V, X.dtype)
+            vs = np.empty(V, np.bool_)
             tmp = np.empty((bh_max + 4, bw_max + 4), np.int32)
             win = np.empty((bh_max + 4, bw_max + 4), np.int32)
             # view-major order: a thread runs the particles of one view in a row, so that
             # view's distance transform (250 KB at 256 px) stays in cache
             for k in range(t, N, nthreads):
                 c = k // n_part
-                n = (k - c * n_part) * num_views + c
+                p = k - c * n_part
+                n = p * num_views + c
                 if not valid[c]:
                     out[n] = np.nan
                     continue
-                c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd, bwd,
+                bad[t] += project_view(X[p, c], cam[c], dist[c], has_dist, has_skew, xs, ys, vs)
+                c_min, c_max, r_min, r_max = scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd,
                                                         orient, flag, live, acc, height, width)
                 x0, y0, x1b, y1b = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
                 bh = y1b - y0
@@ -261,31 +318,36 @@ class FusedSilhouetteEnergy:
             self._obs_target = target            # keep it alive while its id is the key
         return self._obs
 
-    def __call__(self, pixels: np.ndarray, depth: np.ndarray, target, near: float = 0.05,
+    def __call__(self, camera: np.ndarray, rig, target, near: float = 0.05,
                  threads: int | None = None) -> np.ndarray:
-        """pixels: (P, C, V, 2) internal-resolution pixels; depth: (P, C, V) camera z;
+        """camera: (P, C, 3, V) camera coordinates of the mesh's vertices in the views of
+        ``rig`` (:func:`mocap.cameras.camera_coordinates`; the internal-resolution rig);
         target: :class:`~mocap.energy.silhouette.SilhouetteTarget` -> (P, C) float64 energies
-        (NaN for views the target ignores)."""
-        P, C, V, _ = pixels.shape
+        (NaN for views the target ignores). The projection's last steps (divide by depth,
+        distortion, intrinsics) run in the kernel, per particle-view."""
+        X = np.ascontiguousarray(camera)
+        if X.ndim != 4 or X.shape[2] != 3 or X.shape[1] != len(rig):
+            raise ValueError(f"camera coordinates must be (P, {len(rig)}, 3, V), got {X.shape}")
+        P, C, _, V = X.shape
         if V != self.num_vertices:
-            raise ValueError(f"pixels has {V} vertices, the mesh {self.num_vertices}")
+            raise ValueError(f"camera coordinates of {V} vertices, the mesh has {self.num_vertices}")
         h, w = target.size
-        flat = pixels.reshape(P * C, V, 2)
-        vis = depth.reshape(P * C, V) > near
-        if flat.size and not (np.isfinite(flat.min()) and np.isfinite(flat.max())):
-            finite = np.isfinite(flat).all(axis=-1)
-            bad = ~finite & vis
-            if bad.any():
-                raise ValueError(f"pixels contain NaN or inf at {int(bad.sum())} vertices in "
-                                 "front of the camera")
-            flat = np.where(finite[..., None], flat, 0)
-        x = np.ascontiguousarray(flat[..., 0])
-        y = np.ascontiguousarray(flat[..., 1])
+        dtype = X.dtype
+        K = rig.K
+        cam = np.empty((C, 8), dtype)
+        cam[:, :5] = np.stack([K[:, 0, 0], K[:, 0, 1], K[:, 0, 2], K[:, 1, 1], K[:, 1, 2]], 1)
+        cam[:, 5:] = (1.0, 2.0, near)
+        dist = np.ascontiguousarray(rig.dist, dtype=dtype)
         obs_r, obs_c, obs_start, obs_box = self._observed(target)
         out = np.empty(P * C)
         n = numba.get_num_threads() if threads is None else int(threads)
-        _fused_energy(x, y, np.ascontiguousarray(vis), self.faces, *self.edge_arrays, target.dt,
-                      target.boxes.astype(np.int64), target.valid,
+        nthreads = max(1, min(n, P * C))
+        bad = np.zeros(nthreads, np.int64)
+        _fused_energy(X, cam, dist, bool(np.any(rig.dist)), bool(np.any(K[:, 0, 1])), self.faces,
+                      *self.edge_arrays, target.dt, target.boxes.astype(np.int64), target.valid,
                       target.area.astype(np.float64), obs_r, obs_c, obs_start, obs_box, C, h, w,
-                      float(np.hypot(h, w)), max(1, min(n, P * C)), out)
+                      float(np.hypot(h, w)), nthreads, out, bad)
+        if bad.sum():
+            raise ValueError(f"pixels contain NaN or inf at {int(bad.sum())} vertices in front "
+                             "of the camera")
         return out.reshape(P, C)

@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from mocap.body.energy_mesh import EnergyMesh
-from mocap.cameras import Rig, project
+from mocap.cameras import Rig, camera_coordinates, project
 from mocap.energy import fused
 from mocap.render import distance_transform, get_rasterizer
 from mocap.render.scaling import scaled_size
@@ -189,8 +189,8 @@ class SilhouetteEnergy:
         vertices = self.shaped.vertices(chi, self._basis)       # of the energy mesh
         if self.fused is None:
             return chamfer_energy(self._rasterize(vertices), target)
-        px, depth = project(self.internal, vertices, return_depth=True)
-        return self.fused(px, depth, target, near=0.05)
+        return self.fused(camera_coordinates(self.internal, vertices), self.internal, target,
+                          near=0.05)
 
     def __call__(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
         """(P, D) -> (P,) E_S, the mean over valid views."""

@@ -151,3 +151,71 @@ def test_fused_equals_the_numpy_path_on_a_mesh_with_non_manifold_edges(body):
     b = SilhouetteEnergy(sb2, rig, scale=1.0, backend="numpy")
     assert a.fused.edge_arrays[2].shape[1] == 2
     np.testing.assert_allclose(a.per_view(chi, target), b.per_view(chi, target), rtol=1e-5, atol=1e-5)
+
+
+def _distorted_skewed(rig):
+    """The rig with OpenCV distortion on every view and skew on one."""
+    from mocap.cameras import Rig
+
+    cams = []
+    for i, cam in enumerate(rig):
+        K = cam.K.copy()
+        if i == 1:
+            K[0, 1] = 0.8
+        cams.append(cam.replace(K=K, dist=(-0.12, 0.03, 0.001, -0.002, 0.004)))
+    return Rig(tuple(cams))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("distorted", [False, True])
+def test_kernel_projection_gives_projects_pixels_bit_for_bit(dtype, distorted):
+    """The kernel finishes the projection from camera_coordinates with project's own float
+    operations: the same pixels, bit for bit, and the near-plane test on the same depths."""
+    from mocap.cameras import camera_coordinates
+
+    rig = ring_rig(3, 3.0, 1.5, 160, 120, fov_deg=60, look_at=(0, 0, 0.9))
+    if distorted:
+        rig = _distorted_skewed(rig)
+    rng = np.random.default_rng(3)
+    pts = rng.normal((0, 0, 0.9), 3.0, (2, 500, 3)).astype(dtype)   # some behind the near plane
+    px, depth = project(rig, pts, return_depth=True)
+    X = camera_coordinates(rig, pts)
+    K = rig.K
+    for p in range(2):
+        for c in range(len(rig)):
+            cam = np.array([K[c, 0, 0], K[c, 0, 1], K[c, 0, 2], K[c, 1, 1], K[c, 1, 2], 1, 2, 0.05],
+                           dtype)
+            xs, ys = np.empty(500, dtype), np.empty(500, dtype)
+            vs = np.empty(500, bool)
+            bad = fused.project_view(X[p, c], cam, rig.dist[c].astype(dtype), bool(np.any(rig.dist)),
+                                     bool(np.any(K[:, 0, 1])), xs, ys, vs)
+            front = depth[p, c] > 0.05
+            assert bad == 0 and 0 < front.sum() < 500
+            np.testing.assert_array_equal(vs, front)
+            np.testing.assert_array_equal(xs[front], px[p, c, front, 0])
+            np.testing.assert_array_equal(ys[front], px[p, c, front, 1])
+
+
+@pytest.mark.parametrize("dtype", ["body", "body64"])
+def test_fused_equals_the_numpy_path_through_a_distorted_skewed_rig(dtype, request):
+    body = request.getfixturevalue(dtype)
+    rig, sb, _, chi, _ = scene(body)
+    rig = _distorted_skewed(rig)
+    numpy_energy = SilhouetteEnergy(sb, rig, scale=1.0, backend="numpy")
+    target = silhouette_target(numpy_energy.model_masks(sb.pose(body.zero_pose(1)).vertices)[0], 1.0,
+                               margin=8)
+    compiled = SilhouetteEnergy(sb, rig, scale=1.0, backend="numba")
+    np.testing.assert_allclose(compiled.per_view(chi, target), numpy_energy.per_view(chi, target),
+                               rtol=1e-5, atol=1e-5)
+
+
+def test_fused_refuses_camera_coordinates_of_the_wrong_shape(body):
+    rig, sb, target, chi, _ = scene(body, particles=2)
+    compiled = SilhouetteEnergy(sb, rig, scale=1.0, backend="numba")
+    from mocap.cameras import camera_coordinates
+
+    X = camera_coordinates(rig, sb.pose(chi).vertices)
+    with pytest.raises(ValueError, match="camera coordinates"):
+        compiled.fused(X[:, :2], rig, target)
+    with pytest.raises(ValueError, match="vertices"):
+        compiled.fused(X[..., :-1], rig, target)
