@@ -23,6 +23,7 @@ cannot be built (ValueError). A particle whose model silhouette is empty in a vi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -78,7 +79,35 @@ def downscale_masks(masks: np.ndarray, scale: float) -> np.ndarray:
         # for m.astype(np.uint8) * 255 at 1004 px; the same image)
         m = np.asarray(m, dtype=bool)
         m255 = np.multiply(m.view(np.uint8), 255, dtype=np.uint8)
-        out[c] = cv2.resize(m255, (w, h), interpolation=cv2.INTER_AREA) >= 128
+        out[c] = _resize_area(m255, w, h) >= 128
+    return out
+
+
+def _resize_area(image: np.ndarray, w: int, h: int) -> np.ndarray:
+    """cv2.resize(image, (w, h), INTER_AREA) of a 2D uint8 image that is mostly 0, on the
+    crop of whole resampling blocks around its nonzero pixels: the same image, bit for bit
+    (tested), at a fraction of the cost for a person in a large frame (1004 -> 251 px:
+    0.76 -> 0.25 ms).
+
+    Per axis, W / gcd(W, w) source pixels map onto w / gcd(W, w) output
+    pixels, and no output pixel reads outside its block, so blocks of zeros give zeros and
+    a block-aligned crop resamples like the whole image, provided the scale W / w is exact
+    in binary floating point (w / gcd a power of two: OpenCV's area tables then shift by
+    whole source pixels); otherwise the whole image is resized."""
+    H, W = image.shape
+    x, y, bw, bh = cv2.boundingRect(image)
+    if bw == 0:
+        return np.zeros((h, w), np.uint8)
+    gx, gy = math.gcd(W, w), math.gcd(H, h)
+    sx, ox, sy, oy = W // gx, w // gx, H // gy, h // gy
+    if ox & (ox - 1) or oy & (oy - 1):
+        return cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA)
+    bx0, bx1 = x // sx, -(-(x + bw) // sx)
+    by0, by1 = y // sy, -(-(y + bh) // sy)
+    out = np.zeros((h, w), np.uint8)
+    out[by0 * oy:by1 * oy, bx0 * ox:bx1 * ox] = cv2.resize(
+        image[by0 * sy:by1 * sy, bx0 * sx:bx1 * sx], ((bx1 - bx0) * ox, (by1 - by0) * oy),
+        interpolation=cv2.INTER_AREA)
     return out
 
 

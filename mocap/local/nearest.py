@@ -70,6 +70,47 @@ if HAVE_NUMBA:
             idx[n] = best_i
 
 
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _buckets(points, cell):
+        """The grid over points (M, 2): cell (the argument where > 0, else ~2 points per
+        bucket), nx, ny, origin (x, y), and the point ids ordered by bucket (a stable
+        counting sort: the order of a stable argsort) with each bucket's start offset.
+        One call instead of a dozen numpy ones (the matcher builds one grid per view and
+        iteration)."""
+        lo_x = hi_x = points[0, 0]
+        lo_y = hi_y = points[0, 1]
+        for i in range(1, points.shape[0]):
+            lo_x = min(lo_x, points[i, 0])
+            hi_x = max(hi_x, points[i, 0])
+            lo_y = min(lo_y, points[i, 1])
+            hi_y = max(hi_y, points[i, 1])
+        ex = max(hi_x - lo_x, 1.0)
+        ey = max(hi_y - lo_y, 1.0)
+        # about 2 points per bucket on an outline (points spread along a curve, not an area)
+        if cell <= 0:
+            cell = max(2.0, np.sqrt(ex * ey / max(points.shape[0] / 2.0, 1.0)))
+        nx = int(ex // cell) + 1
+        ny = int(ey // cell) + 1
+        inv = 1.0 / cell                      # the query's bucket arithmetic, exactly
+        bucket = np.empty(points.shape[0], np.int64)
+        start = np.zeros(nx * ny + 1, np.int64)
+        for i in range(points.shape[0]):
+            ix = int(min(max(np.floor((points[i, 0] - lo_x) * inv), 0.0), nx - 1.0))
+            iy = int(min(max(np.floor((points[i, 1] - lo_y) * inv), 0.0), ny - 1.0))
+            bucket[i] = iy * nx + ix
+            start[bucket[i] + 1] += 1
+        for b in range(nx * ny):
+            start[b + 1] += start[b]
+        fill = start[:-1].copy()
+        order = np.empty(points.shape[0], np.int64)
+        for i in range(points.shape[0]):
+            order[fill[bucket[i]]] = i
+            fill[bucket[i]] += 1
+        return cell, nx, ny, lo_x, lo_y, order, start
+
+
 class NearestPoints:
     """Nearest-neighbour index over points (M, 2) (M >= 1); ``query(q)`` -> (dist (N,),
     idx (N,)) like ``cKDTree(points).query(q)``."""
@@ -87,22 +128,10 @@ class NearestPoints:
         if not self.compiled:
             warn_once("nearest", "contour matching queries a k-d tree (cKDTree), slower")
             return
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        extent = np.maximum(hi - lo, 1.0)
-        # about 2 points per bucket on an outline (points spread along a curve, not an area)
-        if cell is None:
-            cell = max(2.0, float(np.sqrt(extent[0] * extent[1] / max(len(pts) / 2.0, 1.0))))
+        cell, self.nx, self.ny, ox, oy, self.order, self.start = _buckets(
+            pts, -1.0 if cell is None else float(cell))
         self.cell = float(cell)
-        self.nx = int(extent[0] // self.cell) + 1
-        self.ny = int(extent[1] // self.cell) + 1
-        self.origin = lo
-        inv = 1.0 / self.cell                 # the kernel's bucket arithmetic, exactly
-        ix = np.clip(np.floor((pts[:, 0] - lo[0]) * inv), 0, self.nx - 1).astype(np.int64)
-        iy = np.clip(np.floor((pts[:, 1] - lo[1]) * inv), 0, self.ny - 1).astype(np.int64)
-        bucket = iy * self.nx + ix
-        self.order = np.argsort(bucket, kind="stable").astype(np.int64)
-        counts = np.bincount(bucket, minlength=self.nx * self.ny)
-        self.start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        self.origin = np.array([ox, oy])
 
     def query(self, queries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q = np.ascontiguousarray(queries, np.float64).reshape(-1, 2)

@@ -93,3 +93,30 @@ def test_downscaled_masks_follow_the_area_rule_for_bool_and_byte_masks():
         got = downscale_masks(given, scale)
         assert got.shape == want.shape
         np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("sizes", [(1004, 1004, 251, 251), (1004, 1004, 256, 256),
+                                   (500, 500, 128, 128), (480, 640, 120, 160),
+                                   (1080, 1920, 256, 455), (1002, 1000, 300, 333)])
+def test_block_cropped_area_resize_is_cv2s_whole_image_resize(sizes):
+    """_resize_area resamples only whole blocks around the nonzero pixels: equal to
+    cv2.resize(INTER_AREA) of the whole image, for integer, dyadic and other scales (the last
+    two fall back to the whole image), a blob anywhere (edges included), scattered pixels,
+    and an empty image."""
+    import cv2
+
+    from mocap.energy.silhouette import _resize_area
+
+    H, W, h, w = sizes
+    rng = np.random.default_rng(0)
+    yy, xx = np.ogrid[:H, :W]
+    for trial in range(8):
+        m = np.zeros((H, W), np.uint8)
+        cy, cx = rng.integers(0, H), rng.integers(0, W)
+        ry, rx = rng.integers(1, H // 2), rng.integers(1, W // 3)
+        m[((yy - cy) / ry) ** 2 + ((xx - cx) / rx) ** 2 < 1] = 255
+        if trial % 3 == 2:
+            m[rng.random((H, W)) < 0.001] = 255
+        np.testing.assert_array_equal(_resize_area(m, w, h),
+                                      cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA))
+    np.testing.assert_array_equal(_resize_area(np.zeros((H, W), np.uint8), w, h), 0)

@@ -64,3 +64,26 @@ def test_without_numba_the_kd_tree_answers_and_says_so_once(monkeypatch):
     assert not a.compiled and not b.compiled
     q = np.array([[1.0, 2.0], [20.0, -3.0]])
     np.testing.assert_array_equal(a.query(q)[1], cKDTree(pts).query(q)[1])
+
+
+@pytest.mark.skipif(not nearest.HAVE_NUMBA, reason="numba is not installed")
+def test_the_compiled_grid_is_the_stable_bucket_sort_of_its_points():
+    """_buckets (one compiled call) = the numpy construction: cell, extent, bucket ids by the
+    query's arithmetic, a stable argsort and the bucket offsets."""
+    rng = np.random.default_rng(5)
+    for pts, cell in ((rng.uniform(0, 300, (700, 2)), None), (rng.normal(50, 3, (40, 2)), None),
+                      (np.repeat(rng.uniform(0, 9, (5, 2)), 3, axis=0), 2.5),
+                      (np.array([[4.0, 4.0]]), None)):
+        grid = nearest.NearestPoints(pts, cell=cell)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        extent = np.maximum(hi - lo, 1.0)
+        want_cell = cell or max(2.0, float(np.sqrt(extent[0] * extent[1] / max(len(pts) / 2.0, 1.0))))
+        nx, ny = int(extent[0] // want_cell) + 1, int(extent[1] // want_cell) + 1
+        ix = np.clip(np.floor((pts[:, 0] - lo[0]) * (1.0 / want_cell)), 0, nx - 1).astype(np.int64)
+        iy = np.clip(np.floor((pts[:, 1] - lo[1]) * (1.0 / want_cell)), 0, ny - 1).astype(np.int64)
+        bucket = iy * nx + ix
+        assert (grid.cell, grid.nx, grid.ny) == (want_cell, nx, ny)
+        np.testing.assert_array_equal(grid.origin, lo)
+        np.testing.assert_array_equal(grid.order, np.argsort(bucket, kind="stable"))
+        np.testing.assert_array_equal(
+            grid.start, np.concatenate([[0], np.cumsum(np.bincount(bucket, minlength=nx * ny))]))
