@@ -132,14 +132,26 @@ def project(
     """
     single = isinstance(cameras, Camera)
     rig = as_rig(cameras)
-    X = camera_coordinates(rig, points)
+    pixels, depth = pixels_from_camera(rig, camera_coordinates(rig, points), overwrite=True)
+    if not return_depth:
+        return pixels[..., 0, :, :] if single else pixels
+    return (pixels[..., 0, :, :], depth[..., 0, :]) if single else (pixels, depth)
+
+
+def pixels_from_camera(rig: Rig, X: np.ndarray, overwrite: bool = False
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Camera coordinates (..., C, 3, N) (:func:`camera_coordinates`) -> pixels
+    (..., C, N, 2) and depth (..., C, N) in ``rig``'s views: :func:`project`'s second step,
+    for code that has the camera coordinates already (e.g. in a rig and its rescaled copy,
+    which share R and t). ``overwrite`` lets it use X's rows as scratch."""
     dtype = X.dtype
     z = X[..., 2, :]
+    depth = np.ascontiguousarray(z)  # do not keep the whole (..., C, 3, N) block alive
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv_z = np.reciprocal(z)
-        x = X[..., 0, :]
+        x = X[..., 0, :] if overwrite else X[..., 0, :].copy()
         x *= inv_z
-        y = X[..., 1, :]
+        y = X[..., 1, :] if overwrite else X[..., 1, :].copy()
         y *= inv_z
         if np.any(rig.dist):
             coeffs = [c[:, None] for c in _split_dist(rig.dist, dtype)]  # each (C, 1)
@@ -153,10 +165,7 @@ def project(
         u += K[:, 0, 1, None] * y
     np.multiply(K[:, 1, 1, None], y, out=v)
     v += K[:, 1, 2, None]
-    if not return_depth:
-        return pixels[..., 0, :, :] if single else pixels
-    depth = np.ascontiguousarray(z)  # do not keep the whole (..., C, 3, N) block alive
-    return (pixels[..., 0, :, :], depth[..., 0, :]) if single else (pixels, depth)
+    return pixels, depth
 
 
 # --- back-projection -------------------------------------------------------------------------

@@ -24,7 +24,14 @@ import numpy as np
 import trimesh
 
 from mocap.body.model import BodyModel
-from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project, view_rigs
+from mocap.cameras import (
+    Rig,
+    camera_coordinates,
+    pixel_rays,
+    pixels_from_camera,
+    plucker_from_rays,
+    view_rigs,
+)
 from mocap.compiled import HAVE_NUMBA, njit
 from mocap.local.nearest import NearestPoints
 from mocap.local.solver import PointLines
@@ -167,7 +174,9 @@ class ContourMatcher:
         """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
         views without an observed contour."""
         h, w = self.small_size
-        px_small, depth_small = project(self.small, verts, return_depth=True)
+        # camera coordinates once: the visibility rig (rescaled) shares R, t with the rig
+        cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
+        px_small, depth_small = pixels_from_camera(self.small, cam_xyz)
         model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
         X, limbs, Q = [], [], []
         counts, empty = [], []
@@ -194,7 +203,7 @@ class ContourMatcher:
             if len(vid) == 0:
                 counts.append(0)
                 continue
-            p = project(cam, verts[vid])[0]
+            p = pixels_from_camera(cam, cam_xyz[c:c + 1, :, vid])[0][0]
             # both directions: each model contour point to its closest observed contour
             # point, and each observed contour point to its closest model contour point, so
             # that observed outline no model part explains still pulls the model
