@@ -4,7 +4,7 @@ against a stored baseline (not a timed test: run it by hand on a quiet machine).
     .venv/bin/python benchmarks/bench_speed.py [--frames 4] [--threads 1]
         [--trackers local,local_sift,apf_prior,apf,hybrid] [--backend auto|numba|numpy]
         [--legacy-local] [--compare] [--baseline benchmarks/baseline_speed.json]
-        [--save-baseline]
+        [--save-baseline] [--frame-times FILE]
 
 Fixed settings: the MPI08-like rig (8 views, 1004 x 1004), 256 px internal silhouettes, a
 synthetic walk (seed 0, textured images so that ``local_sift`` has SIFT features; the other
@@ -18,6 +18,16 @@ that ratio is the figure to trust, absolute times drift with the load.
 
 The baseline JSON stores seconds per frame per tracker (and the machine it came from);
 every later run prints ``now / baseline`` next to its own times.
+
+Comparing two commits on a noisy machine: run this script from two checkouts in turn, several
+rounds, each with ``--frame-times FILE`` (one JSON line per run: commit, load, every frame's
+seconds per tracker; the old commit needs this option too), then compare medians and the
+fastest frames per commit::
+
+    git worktree add ../old <commit> && ln -s $PWD/.venv ../old/.venv
+    for r in 1 2 3 4; do for d in ../old .; do (cd $d && .venv/bin/python \
+        benchmarks/bench_speed.py --frames 7 --trackers local,apf_prior,apf \
+        --frame-times /tmp/ab.jsonl); done; done
 """
 
 from __future__ import annotations
@@ -62,8 +72,9 @@ def without_images(frame: Frame) -> Frame:
     return Frame(index=frame.index, masks=frame.masks, images=None, detections=frame.detections)
 
 
-def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, float]:
-    """Mean and median seconds per tracked frame, and mean energy evaluations."""
+def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, float, list]:
+    """Mean and median seconds per tracked frame, mean energy evaluations, and every frame's
+    seconds."""
     cfg_name, overrides, images = TRACKERS[name]
     with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
         cfg = compose("track", overrides=[f"tracker={cfg_name}", *overrides])
@@ -80,7 +91,17 @@ def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, 
         est = tracker.step(frame)
         times.append(time.perf_counter() - t)
         evals.append(est.diagnostics.get("energy_evaluations", 0))
-    return float(np.mean(times)), float(np.median(times)), float(np.mean(evals))
+    return float(np.mean(times)), float(np.median(times)), float(np.mean(evals)), times
+
+
+def _commit() -> str:
+    """This checkout's commit (for --frame-times lines), or '' outside git."""
+    import subprocess
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, text=True,
+                              capture_output=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
 
 
 def set_path(old: bool, backend: str) -> None:
@@ -100,6 +121,8 @@ def main() -> None:
     p.add_argument("--compare", action="store_true", help="old path, then new path, same process")
     p.add_argument("--baseline", type=Path, default=BASELINE)
     p.add_argument("--save-baseline", action="store_true", help="store this run's times as baseline")
+    p.add_argument("--frame-times", type=Path, default=None,
+                   help="append every frame's seconds to this JSON-lines file (one line per run)")
     args = p.parse_args()
 
     with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
@@ -119,12 +142,14 @@ def main() -> None:
     print(header + (f" {'old/new':>8s}" if args.compare else "")
           + (f" {'/baseline':>9s}" if baseline else ""))
     results: dict[str, float] = {}
+    frame_times: dict[str, list] = {}
     for name in names:
         row = {}
         for path in paths:
             set_path(path == "old", args.backend)
             with thread_budget(args.threads or None):
-                mean, median, evals = time_tracker(name, body, rig, seq, args.frames)
+                mean, median, evals, times = time_tracker(name, body, rig, seq, args.frames)
+            frame_times.setdefault(f"{name} {path}", []).append(times)
             row[path] = median
             line = f"{name:11s} {path:4s} {mean:8.3f} {median:9.3f} {evals:6.0f}"
             if args.compare and path == "new":
@@ -136,6 +161,9 @@ def main() -> None:
             print(line, flush=True)
         results[name] = row[paths[-1]]
     set_path(False, "auto")
+    if args.frame_times:
+        with args.frame_times.open("a") as f:
+            f.write(json.dumps({"commit": _commit(), "load": load, "times": frame_times}) + "\n")
     if args.save_baseline:
         args.baseline.write_text(json.dumps({
             "seconds_per_frame": results, "path": paths[-1], "threads": args.threads,
