@@ -222,3 +222,15 @@ def test_triangulation_accepts_a_sequence_of_cameras(rig, rng):
     X = points_near_origin(rng, 10)
     cams = [random_camera(np.random.default_rng(s), f"c{s}") for s in range(3)]
     assert np.abs(triangulate(cams, project(Rig(tuple(cams)), X)) - X).max() < 1e-7
+
+
+def test_cross3_is_numpys_cross_float_for_float():
+    from mocap.cameras.projection import cross3
+
+    rng = np.random.default_rng(2)
+    for sa, sb in (((7, 3), (7, 3)), ((4, 5, 3), (3,)), ((1, 6, 3), (4, 1, 3)), ((3,), (3,))):
+        for dt in (np.float32, np.float64):
+            a, b = rng.normal(size=sa).astype(dt), rng.normal(size=sb).astype(dt)
+            got, want = cross3(a, b), np.cross(a, b)
+            assert got.dtype == want.dtype and got.shape == want.shape
+            np.testing.assert_array_equal(got, want)

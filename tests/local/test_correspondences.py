@@ -161,3 +161,32 @@ def test_compiled_contour_generator_equals_the_numpy_one(dtype, request, monkeyp
         assert all(len(a) > 50 for a in compiled)
         for a, r in zip(compiled, reference, strict=True):
             np.testing.assert_array_equal(a, r)
+
+
+def test_outline_band_on_the_masks_box_is_the_whole_image_computation():
+    """The visibility band (outline of the model mask, dilated by the tolerance) taken on the
+    mask's grown bounding box = erode / subtract / dilate on the whole image: blobs inside,
+    touching each border, with holes, a single pixel, the full image, an empty mask."""
+    import cv2
+
+    from mocap.local.contour import outline_band
+
+    k3 = np.ones((3, 3), np.uint8)
+    rng = np.random.default_rng(4)
+    h, w = 90, 120
+    yy, xx = np.ogrid[:h, :w]
+    masks = [np.zeros((h, w), bool), np.ones((h, w), bool)]
+    one = np.zeros((h, w), bool)
+    one[40, 60] = True
+    masks.append(one)
+    for _ in range(12):
+        cy, cx = rng.integers(-10, h + 10), rng.integers(-10, w + 10)
+        m = ((yy - cy) / rng.integers(3, 40)) ** 2 + ((xx - cx) / rng.integers(3, 50)) ** 2 < 1
+        m &= rng.random((h, w)) > 0.05                                     # holes
+        masks.append(m)
+    for r in (1, 2, 3):
+        kt = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        for m in masks:
+            u8 = m.astype(np.uint8)
+            want = cv2.dilate(u8 - cv2.erode(u8, k3), kt)
+            np.testing.assert_array_equal(outline_band(m, k3, kt), want)
