@@ -132,9 +132,10 @@ def project(
     """
     single = isinstance(cameras, Camera)
     rig = as_rig(cameras)
-    pixels, depth = pixels_from_camera(rig, camera_coordinates(rig, points), overwrite=True)
+    pixels, z = pixels_from_camera(rig, camera_coordinates(rig, points), overwrite=True)
     if not return_depth:
         return pixels[..., 0, :, :] if single else pixels
+    depth = np.ascontiguousarray(z)  # do not keep the whole (..., C, 3, N) block alive
     return (pixels[..., 0, :, :], depth[..., 0, :]) if single else (pixels, depth)
 
 
@@ -143,10 +144,10 @@ def pixels_from_camera(rig: Rig, X: np.ndarray, overwrite: bool = False
     """Camera coordinates (..., C, 3, N) (:func:`camera_coordinates`) -> pixels
     (..., C, N, 2) and depth (..., C, N) in ``rig``'s views: :func:`project`'s second step,
     for code that has the camera coordinates already (e.g. in a rig and its rescaled copy,
-    which share R and t). ``overwrite`` lets it use X's rows as scratch."""
+    which share R and t). ``overwrite`` lets it use X's x and y rows as scratch; the depth
+    returned is a view of X's z rows (never overwritten)."""
     dtype = X.dtype
     z = X[..., 2, :]
-    depth = np.ascontiguousarray(z)  # do not keep the whole (..., C, 3, N) block alive
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         inv_z = np.reciprocal(z)
         x = X[..., 0, :] if overwrite else X[..., 0, :].copy()
@@ -165,7 +166,7 @@ def pixels_from_camera(rig: Rig, X: np.ndarray, overwrite: bool = False
         u += K[:, 0, 1, None] * y
     np.multiply(K[:, 1, 1, None], y, out=v)
     v += K[:, 1, 2, None]
-    return pixels, depth
+    return pixels, z
 
 
 # --- back-projection -------------------------------------------------------------------------
