@@ -76,7 +76,7 @@ def main() -> None:
         det, _ = crowd_detections(body, rig, seq.gt.chi[None], seq.gt.alpha[None], labels, noise_px=2.0,
                                   seed=args.seed)
         seq = replace(seq, detections=det)
-    cfg = yaml.safe_load((REPO / "conf/tracker/marker_apf.yaml").read_text())
+    cfg = yaml.safe_load((REPO / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
     cfg.pop("_target_")
     for k in ("particles", "layers"):
         if getattr(args, k) is not None:

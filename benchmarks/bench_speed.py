@@ -76,7 +76,7 @@ def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, 
     """Mean and median seconds per tracked frame, mean energy evaluations, and every frame's
     seconds."""
     cfg_name, overrides, images = TRACKERS[name]
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
         cfg = compose("track", overrides=[f"tracker={cfg_name}", *overrides])
     tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=rig,
                                                          rng=np.random.default_rng(0))
@@ -125,7 +125,7 @@ def main() -> None:
                    help="append every frame's seconds to this JSON-lines file (one line per run)")
     args = p.parse_args()
 
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
         base = compose("track")
     body = instantiate(base.body)
     rig = rig_from_config("mpi08")

@@ -34,7 +34,7 @@ def main() -> None:
     p.add_argument("--images", action="store_true")
     p.add_argument("--cameras", default="mpi08")
     args = p.parse_args()
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
         base = compose("track")
     body = instantiate(base.body)
     rig = rig_from_config(args.cameras)
@@ -43,7 +43,7 @@ def main() -> None:
           f"images: {args.images}")
     print(f"{'tracker':12s} {'mean s':>8s} {'median s':>9s} {'evals':>7s}")
     for name in args.trackers.split(","):
-        with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+        with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
             cfg = compose("track", overrides=[f"tracker={name}"])
         tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=rig, rng=np.random.default_rng(0))
         tracker.initialize(noisy_initial_pose(body, seq.gt.chi[0], np.random.default_rng(0), 3.0, 0.02),

@@ -21,7 +21,7 @@ from mocap.data.sequence_io import write_sequence
 from mocap.viz.contact_sheet import contact_sheet, save_png
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="make_dataset")
+@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="make_dataset")
 def main(cfg: DictConfig) -> None:
     body = instantiate(cfg.body)
     rig = instantiate(cfg.cameras)

@@ -65,7 +65,7 @@ def main() -> None:
     args = p.parse_args()
     body = load_body("paper22")
     rig = rig_from_config("humaneva")
-    cfg = yaml.safe_load((REPO / "conf/tracker/marker_apf.yaml").read_text())
+    cfg = yaml.safe_load((REPO / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
     cfg.pop("_target_")
     rows = []
     for seed in args.seeds:

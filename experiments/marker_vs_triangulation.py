@@ -141,7 +141,7 @@ def main() -> None:
     args = p.parse_args()
     body = load_body("paper22")
     rig = rig_from_config("humaneva")
-    base_cfg = yaml.safe_load((REPO / "conf/tracker/marker_apf.yaml").read_text())
+    base_cfg = yaml.safe_load((REPO / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
     base_cfg.pop("_target_")
     rows = []
     for motion in args.motions:

@@ -22,7 +22,7 @@ from mocap.eval.recovery import recovery_figures
 from mocap.trackers.failures import FailureInjection, FrameSkip, Perturbation
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="recovery")
+@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="recovery")
 def main(cfg: DictConfig) -> None:
     r = cfg.recovery
     skip = FrameSkip(int(r.skip_at), int(r.skip)) if r.skip else None

@@ -23,7 +23,7 @@ from mocap.data.sequence_io import write_sequence
 from mocap.data.video_sequence import load_background_clip
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="segment")
+@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="segment")
 def main(cfg: DictConfig) -> None:
     seq = instantiate(cfg.data, _partial_=True)(body=None)
     clip = load_background_clip(cfg.background_clip, seq) if cfg.background_clip else None

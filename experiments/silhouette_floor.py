@@ -53,7 +53,7 @@ def mean_energy(body, rig, alpha, chis, masks, scale) -> float:
 
 
 def floor(data: str, rounds: int, keyframes: int, frames: int | None, seed: int) -> dict:
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
         cfg = compose("track", overrides=[f"data={data}"])
     body = instantiate(cfg.body)
     seq = instantiate(cfg.data, _partial_=True)(body=body)

@@ -12,7 +12,7 @@ from _harness import run_tracking
 from omegaconf import DictConfig
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="track")
+@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="track")
 def main(cfg: DictConfig) -> None:
     run_tracking(cfg)
 

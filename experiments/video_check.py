@@ -36,7 +36,7 @@ from mocap.trackers.run import frame_of, track_sequence
 REPO = Path(__file__).resolve().parents[1]
 
 
-@hydra.main(version_base="1.3", config_path="../conf", config_name="video_check")
+@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="video_check")
 def main(cfg: DictConfig) -> None:
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -12,7 +12,7 @@ from mocap.data.corruption import SilhouetteNoise
 from mocap.eval.by_name import SKELETONS, NameScorer
 
 REPO = Path(__file__).resolve().parents[2]
-CONF = REPO / "conf"
+CONF = REPO / "mocap_cli" / "conf"
 CONFIGS = {"mismatch_walk": "walk", "mismatch_box": "box", "mismatch_gesture": "gesture_turn"}
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-TRACKERS = sorted(p.stem for p in (REPO / "conf" / "tracker").glob("*.yaml"))
+TRACKERS = sorted(p.stem for p in (REPO / "mocap_cli" / "conf" / "tracker").glob("*.yaml"))
 REQUIRED = {"tracker", "seed", "frames", "mpjpe_mm", "mpjpe_std_mm", "per_joint_mm",
             "sec_per_frame", "energy_evals_per_frame", "per_frame_mm"}
 
@@ -63,7 +63,7 @@ def test_unknown_tracker_fails_at_configuration_time(tmp_path):
     assert not (tmp_path / "metrics.json").exists()
 
 
-SWEEPS = sorted(p.stem for p in (REPO / "conf" / "sweep").glob("*.yaml"))
+SWEEPS = sorted(p.stem for p in (REPO / "mocap_cli" / "conf" / "sweep").glob("*.yaml"))
 
 
 @pytest.mark.slow
@@ -74,7 +74,7 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
     from hydra import compose, initialize_config_dir
     from omegaconf import OmegaConf
 
-    with initialize_config_dir(str(REPO / "conf"), version_base="1.3"):
+    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
         cfg = compose("track", overrides=[f"+sweep={sweep}"], return_hydra_config=True)
     params = dict(cfg.hydra.sweeper.params)
     assert params

@@ -45,7 +45,7 @@ def test_tracker_learns_offsets_and_refines_on_synthetic_markers(body):
     det = {"enabled": True, "detection_rate": 0.9, "false_positive_rate": 0.1, "noise_px": 2.0,
            "occlusion": False}
     seq = make_synthetic(body, rig, motion="walk", frames=8, fps=25, seed=3, masks=False, detections=det)
-    cfg = yaml.safe_load((Path(__file__).resolve().parents[2] / "conf/tracker/marker_apf.yaml").read_text())
+    cfg = yaml.safe_load((Path(__file__).resolve().parents[2] / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
     cfg.pop("_target_")
     cfg["refine"] = {"iterations": 2}
     cfg["offsets"] = {"frames": 4}

@@ -20,7 +20,7 @@ FRAMES = 24
 
 
 def factory(body, rig, seed=0):
-    cfg = yaml.safe_load((REPO / "conf" / "tracker" / "marker_apf.yaml").read_text())
+    cfg = yaml.safe_load((REPO / "mocap_cli" / "conf" / "tracker" / "marker_apf.yaml").read_text())
     cfg.pop("_target_")
     rngs = iter(np.random.default_rng(seed).spawn(10))
     return lambda: make_marker_tracker(body=body, rig=rig, rng=next(rngs), **cfg)

@@ -19,7 +19,7 @@ FRAMES = 12
 
 
 def tracker(body, rig, seed=0, **overrides):
-    cfg = yaml.safe_load((REPO / "conf" / "tracker" / "marker_apf.yaml").read_text())
+    cfg = yaml.safe_load((REPO / "mocap_cli" / "conf" / "tracker" / "marker_apf.yaml").read_text())
     cfg.pop("_target_")
     cfg.update(overrides)
     return make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(seed), **cfg)

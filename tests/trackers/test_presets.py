@@ -13,7 +13,7 @@ from mocap.data.generate import make_synthetic
 from mocap.trackers.presets import PRESETS, make_tracker
 from mocap.trackers.run import track_sequence
 
-CONF = Path(__file__).resolve().parents[2] / "conf"
+CONF = Path(__file__).resolve().parents[2] / "mocap_cli" / "conf"
 # small budgets, applied to both sides
 FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "layers": 2},
         "apf_25x10": {"particles": 6, "layers": 2}, "local": {"iterations": 2},
