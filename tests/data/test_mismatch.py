@@ -1,4 +1,4 @@
-"""The model-mismatch benchmark shipped in data/mismatch (mocap/data/mismatch.py)."""
+"""The model-mismatch benchmark shipped in data/mismatch (mocap_build/mismatch/procedural.py)."""
 
 from pathlib import Path
 
@@ -7,9 +7,9 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
-from mocap.data import mismatch as mm
 from mocap.data.corruption import SilhouetteNoise
 from mocap.eval.by_name import SKELETONS, NameScorer
+from mocap_build.mismatch import procedural as mm
 
 REPO = Path(__file__).resolve().parents[2]
 CONF = REPO / "mocap_cli" / "conf"
@@ -31,7 +31,7 @@ def test_the_module_does_not_need_torch():
     import subprocess
     import sys
 
-    code = "import sys, mocap.data.mismatch; assert 'torch' not in sys.modules"
+    code = "import sys, mocap_build.mismatch.procedural; assert 'torch' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True, cwd=REPO)
 
 

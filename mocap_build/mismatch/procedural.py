@@ -1,6 +1,6 @@
 """The model-mismatch benchmark: sequences rendered NOT by the tracker's PCA body model.
 
-The generator (``experiments/make_mismatch.py``, build extra: torch + anny) poses the
+The generator (``mocap_build/make_mismatch.py``, build extra: torch + anny) poses the
 full-resolution anny mesh (13,718 vertices, anny's own 104-bone linear blend skinning) of
 subjects whose phenotypes were not among the bodies the shipped PCA was built from, with
 procedural motions written directly as anny bone rotations (independent of
