@@ -11,20 +11,36 @@ training samples, as the paper learns it:
     p(chi) = 1 / (sqrt(2 pi) sigma T) * sum_j exp(-||chi - chi_j||^2 / (2 sigma^2))
 
 (the paper's normalisation, written for one dimension, is kept: a constant does not change
-the particle weights). Evaluated with log-sum-exp, so far-away poses give large finite
+the particle weights; :mod:`mocap.energy.prior_eval` has the n-D normalised density for
+comparisons of likelihoods). Evaluated with log-sum-exp, so far-away poses give large finite
 energies, never inf or NaN.
+
+Priors come from two sources (:func:`prior_path`): ``procedural`` (poses of our procedural
+motion library, ``pose_prior_<body>.npz``) and ``real`` (retargeted real motion capture,
+``pose_prior_real_<body>.npz``, CC BY-NC 4.0 adapted material: its licence and attribution
+travel in the file, :class:`PriorProvenance`, and in ``NOTICE-pose_prior_real.txt`` beside it).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import json
+from dataclasses import asdict, dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
 from scipy.special import logsumexp
 
-PRIOR_FORMAT = "mocap-pose-prior-v1"
+PRIOR_FORMAT = "mocap-pose-prior-v2"
+#: formats :meth:`ParzenPrior.load` reads: v1 (samples, DOF names, sigma, source) and v2 (v1 plus
+#: the provenance as JSON under ``meta``)
+READABLE_FORMATS = ("mocap-pose-prior-v1", PRIOR_FORMAT)
+#: prior source -> asset file name in ``mocap/energy/assets`` ({body}: the body's name)
+PRIOR_SOURCES = {"procedural": "pose_prior_{body}.npz", "real": "pose_prior_real_{body}.npz"}
+#: above this many samples the squared distances use ||a||^2 + ||s||^2 - 2 a.s (one matrix
+#: product, ~5x faster at T = 2000); up to it the direct differences (exact; today's priors)
+_EXPANSION_MIN_SAMPLES = 1000
 
 
 def joint_limit_energy(angles: np.ndarray, limits: np.ndarray, sigma: float) -> np.ndarray:
@@ -42,28 +58,73 @@ def max_nearest_neighbour_distance(samples: np.ndarray) -> float:
 
 
 @dataclass(frozen=True)
+class PriorProvenance:
+    """Where a prior's samples come from (saved with it; empty for v1 files).
+
+    licence: licence and attribution of the data the samples derive from ("" = our own);
+    motion_types: the motion types trained on; held_out_types: those kept out (the split's);
+    clips: how many clips; clips_sha256: SHA-256 of the sorted ``name sha256`` lines of the
+    clips; pool: poses available before selection; selection: how the T samples were chosen;
+    retarget: the retargeting version that made the poses; body: the body's name."""
+
+    licence: str = ""
+    motion_types: tuple[str, ...] = ()
+    held_out_types: tuple[str, ...] = ()
+    clips: int = 0
+    clips_sha256: str = ""
+    pool: int = 0
+    selection: str = ""
+    retarget: str = ""
+    body: str = ""
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+    @staticmethod
+    def from_json(d: dict) -> PriorProvenance:
+        known = {k: v for k, v in d.items() if k in PriorProvenance.__dataclass_fields__}
+        for k in ("motion_types", "held_out_types"):
+            known[k] = tuple(known.get(k, ()))
+        return PriorProvenance(**known)
+
+
+@dataclass(frozen=True)
 class ParzenPrior:
-    """Training poses (T, n) over the named DOFs and the kernel width sigma."""
+    """Training poses (T, n) over the named DOFs, the kernel width sigma, a one-line source
+    description and the provenance (licence, motion types, clips)."""
 
     samples: np.ndarray
     dof_names: tuple[str, ...]
     sigma: float
     source: str = ""
+    provenance: PriorProvenance = field(default=PriorProvenance())
 
     @staticmethod
-    def fit(samples: np.ndarray, dof_names: tuple[str, ...], source: str = "") -> ParzenPrior:
+    def fit(samples: np.ndarray, dof_names: tuple[str, ...], source: str = "",
+            provenance: PriorProvenance = PriorProvenance()) -> ParzenPrior:
         samples = np.asarray(samples, np.float64)
         if samples.ndim != 2 or samples.shape[1] != len(dof_names):
             raise ValueError(f"samples must be (T, {len(dof_names)}), got {samples.shape}")
         if not np.all(np.isfinite(samples)):
             raise ValueError("prior training samples contain NaN or inf")
         return ParzenPrior(samples, tuple(dof_names), max_nearest_neighbour_distance(samples),
-                           source)
+                           source, provenance)
+
+    @cached_property
+    def _sample_norms(self) -> np.ndarray:
+        return (self.samples**2).sum(axis=1)
+
+    def squared_distances(self, angles: np.ndarray) -> np.ndarray:
+        """||angles_p - samples_t||^2. angles: (P, n) -> (P, T)."""
+        angles = np.asarray(angles, np.float64)
+        if len(self.samples) < _EXPANSION_MIN_SAMPLES:
+            return ((angles[:, None, :] - self.samples[None]) ** 2).sum(axis=2)
+        d2 = (angles**2).sum(axis=1)[:, None] + self._sample_norms[None] - 2.0 * angles @ self.samples.T
+        return np.maximum(d2, 0.0)
 
     def energy(self, angles: np.ndarray) -> np.ndarray:
         """E_learned = -log p (Eq. 15-16). angles: (P, n) in ``dof_names`` order -> (P,)."""
-        angles = np.asarray(angles, np.float64)
-        d2 = ((angles[:, None, :] - self.samples[None]) ** 2).sum(axis=2)      # (P, T)
+        d2 = self.squared_distances(angles)                                    # (P, T)
         T = len(self.samples)
         log_p = logsumexp(-d2 / (2 * self.sigma**2), axis=1) - np.log(np.sqrt(2 * np.pi) * self.sigma * T)
         return -log_p
@@ -72,9 +133,11 @@ class ParzenPrior:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp.npz")
+        meta = {"source": self.source, "samples": len(self.samples), "dofs": len(self.dof_names),
+                "sigma": self.sigma, **self.provenance.to_json()}
         np.savez(tmp, format=np.array(PRIOR_FORMAT), samples=self.samples,
                  dof_names=np.array(self.dof_names), sigma=np.array(self.sigma),
-                 source=np.array(self.source))
+                 source=np.array(self.source), meta=np.array(json.dumps(meta, ensure_ascii=False)))
         tmp.replace(path)
         return path
 
@@ -83,16 +146,22 @@ class ParzenPrior:
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"pose prior file not found: {path} (build it with "
-                                    "experiments/train_prior.py)")
+                                    "experiments/train_prior.py or studies/prior_heldout.py --train)")
         try:
             with np.load(path, allow_pickle=False) as z:
-                if str(z.get("format", "")) != PRIOR_FORMAT:
-                    raise ValueError(f"{path}: not a pose prior file (format {PRIOR_FORMAT!r})")
+                fmt = str(z.get("format", ""))
+                if fmt not in READABLE_FORMATS:
+                    raise ValueError(f"{path}: not a pose prior file (format {fmt!r}, readable: "
+                                     f"{', '.join(READABLE_FORMATS)})")
                 samples, names = z["samples"], tuple(str(n) for n in z["dof_names"])
                 sigma, source = float(z["sigma"]), str(z["source"])
+                meta = json.loads(str(z["meta"])) if "meta" in z else {}
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"{path}: unreadable pose prior ({exc})") from exc
-        return ParzenPrior(samples, names, sigma, source)
+        if meta and (meta.get("samples") != len(samples) or meta.get("sigma") != sigma):
+            raise ValueError(f"{path}: metadata disagree with the arrays (samples {meta.get('samples')} "
+                             f"vs {len(samples)}, sigma {meta.get('sigma')} vs {sigma})")
+        return ParzenPrior(samples, names, sigma, source, PriorProvenance.from_json(meta))
 
 
 class PosePrior:
@@ -126,8 +195,18 @@ class PosePrior:
         return t["prior"] + t["learned"]
 
 
-def default_prior_path(body_name: str) -> Path:
-    """The prior shipped with mocap for a body configuration."""
+def prior_path(body_name: str, source: str) -> Path:
+    """The prior shipped with mocap for a body configuration from a source (``PRIOR_SOURCES``:
+    "procedural", "real"). The file may be absent (not shipped for that body):
+    :meth:`ParzenPrior.load` says so."""
     from importlib import resources
 
-    return Path(str(resources.files("mocap.energy") / "assets" / f"pose_prior_{body_name}.npz"))
+    if source not in PRIOR_SOURCES:
+        raise ValueError(f"unknown pose prior source {source!r}: available {', '.join(PRIOR_SOURCES)}")
+    name = PRIOR_SOURCES[source].format(body=body_name)
+    return Path(str(resources.files("mocap.energy") / "assets" / name))
+
+
+def default_prior_path(body_name: str) -> Path:
+    """The procedural prior shipped with mocap for a body configuration."""
+    return prior_path(body_name, "procedural")

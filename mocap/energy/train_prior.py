@@ -1,12 +1,24 @@
-"""Training the Parzen pose prior from training motions (never the test sequences)."""
+"""Training the Parzen pose prior from training motions (never the test sequences).
+
+Two sources: the procedural motion library (:func:`train_prior`, ``split="train"`` motions) and
+real motion capture (:func:`train_real_prior`: clips of the motion types a split trains on,
+retargeted onto the body by :mod:`mocap.clips`; a held-out type raises before any work).
+"""
 
 from __future__ import annotations
+
+import csv
+import hashlib
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.data.motion import ACTIONS, generate_motion
-from mocap.energy.prior import ParzenPrior
+from mocap.energy.prior import ParzenPrior, PriorProvenance
 
 
 def training_poses(body: BodyModel, samples: int = 100, seed: int = 0,
@@ -29,3 +41,190 @@ def train_prior(body: BodyModel, samples: int = 100, seed: int = 0) -> ParzenPri
     return ParzenPrior.fit(training_poses(body, samples, seed), body.dof_names[6:],
                            source=f"{samples} poses of the training motions {', '.join(ACTIONS)} "
                                   f"(split=train, seed {seed}) for body '{body.name}'")
+
+
+# --- the prior learned from real motion capture (issue 24) ------------------------------------
+
+#: licence and attribution of a prior trained on the Bandai Namco Research Motion Dataset
+BANDAI_NAMCO_LICENCE = (
+    "CC BY-NC 4.0 — adapted from the Bandai-Namco-Research-Motiondataset (c) 2022 Bandai Namco "
+    "Research Inc., https://github.com/BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset; "
+    "non-commercial use only")
+SELECTIONS = ("uniform", "farthest")
+
+
+@dataclass(frozen=True)
+class MotionSplit:
+    """The motion types a prior may learn from (``train``) and those it must never see."""
+
+    train: tuple[str, ...]
+    held_out: tuple[str, ...]
+    dataset: str = ""
+
+
+@dataclass(frozen=True)
+class ClipEntry:
+    """One clip of a motion-capture folder: its path, motion type and file SHA-256."""
+
+    path: Path
+    motion: str
+    sha256: str
+
+
+def read_split(path: str | Path | None = None) -> MotionSplit:
+    """The motion-type split (``mocap/clips/split.yaml`` unless ``path`` names another)."""
+    import yaml
+
+    path = Path(path) if path is not None else Path(__file__).resolve().parents[1] / "clips" / "split.yaml"
+    d = yaml.safe_load(path.read_text())
+    try:
+        split = MotionSplit(tuple(d["train"]), tuple(d["held_out"]), str(d.get("dataset", "")))
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{path}: a split needs the lists 'train' and 'held_out' ({exc})") from exc
+    both = sorted(set(split.train) & set(split.held_out))
+    if both:
+        raise ValueError(f"{path}: motion types in both train and held_out: {', '.join(both)}")
+    return split
+
+
+def check_training_types(types: tuple[str, ...] | list[str], split: MotionSplit) -> None:
+    """The leak check: raise if a training motion type is held out (or not a train type)."""
+    leak = sorted(set(types) & set(split.held_out))
+    if leak:
+        raise ValueError(f"motion types {', '.join(leak)} are held out by the split (held_out: "
+                         f"{', '.join(split.held_out)}): they must never enter the prior's training set")
+    unknown = sorted(set(types) - set(split.train))
+    if unknown:
+        raise ValueError(f"motion types {', '.join(unknown)} are not train types of the split "
+                         f"(train: {', '.join(split.train)})")
+
+
+def clip_entries(clips_folder: str | Path, types: tuple[str, ...] | list[str]) -> list[ClipEntry]:
+    """The clips of the given motion types listed in ``clips_folder/index.csv`` (columns
+    ``file``, ``motion``), sorted by path, with their SHA-256."""
+    folder = Path(clips_folder)
+    index = folder / "index.csv"
+    if not index.is_file():
+        raise ValueError(f"clips folder {folder}: no index.csv (columns file, motion) to list its clips")
+    with index.open(newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["motion"] in set(types)]
+    out = []
+    for r in sorted(rows, key=lambda r: r["file"]):
+        path = folder / r["file"]
+        if not path.is_file():
+            raise ValueError(f"{index} lists {r['file']}, which is not in {folder}")
+        out.append(ClipEntry(path, r["motion"], hashlib.sha256(path.read_bytes()).hexdigest()))
+    return out
+
+
+def clips_sha256(entries: list[ClipEntry]) -> str:
+    """SHA-256 of the sorted ``name sha256`` lines of the clips (the clip list's identity)."""
+    lines = sorted(f"{e.path.name} {e.sha256}" for e in entries)
+    return hashlib.sha256("\n".join(lines).encode()).hexdigest()
+
+
+def retarget_version() -> str:
+    """The retargeting's version: ``mocap.clips.RETARGET_VERSION`` if it has one, else a hash of
+    the retargeting module's source (any change re-retargets)."""
+    import mocap.clips as clips
+
+    version = getattr(clips, "RETARGET_VERSION", None)
+    if version is not None:
+        return str(version)
+    mod = sys.modules[clips.retarget.__module__]
+    return "src-" + hashlib.sha256(Path(mod.__file__).read_bytes()).hexdigest()[:12]
+
+
+def _retarget_clip(path: Path, body: BodyModel) -> np.ndarray:
+    """χ (F, D) of ``body`` following the clip (mocap.clips's reader and retargeting)."""
+    from mocap.clips import read_bvh, retarget
+
+    result = retarget(read_bvh(path), body)
+    return np.asarray(result.chi, np.float64)
+
+
+def retargeted_chi(entry: ClipEntry, body: BodyModel, cache_dir: str | Path | None,
+                   retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None,
+                   version: str | None = None) -> np.ndarray:
+    """χ (F, D) of a clip retargeted onto ``body``, cached in ``cache_dir`` as
+    ``<body>-<clip sha256[:16]>-<version>.npz`` (None: no cache)."""
+    fn = retarget_fn or _retarget_clip
+    version = version or (retarget_version() if retarget_fn is None else "custom")
+    key = hashlib.sha256(",".join(body.dof_names).encode()).hexdigest()[:8]
+    name = f"{body.name}{key}-{entry.sha256[:16]}-{version}.npz"
+    cache = None if cache_dir is None else Path(cache_dir) / name
+    if cache is not None and cache.is_file():
+        with np.load(cache) as z:
+            return z["chi"]
+    chi = np.asarray(fn(entry.path, body), np.float64)
+    if chi.ndim != 2 or chi.shape[1] != body.num_dofs:
+        raise ValueError(f"retargeting {entry.path} gave χ of shape {chi.shape}, "
+                         f"expected (F, {body.num_dofs})")
+    if cache is not None:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        tmp = cache.with_name(cache.name + ".tmp.npz")
+        np.savez(tmp, chi=chi, clip=str(entry.path.name), sha256=entry.sha256, version=version)
+        tmp.replace(cache)
+    return chi
+
+
+def real_poses(entries: list[ClipEntry], body: BodyModel, cache_dir: str | Path | None = None,
+               retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles of every frame of the clips: poses (N, D - 6), clip id per pose (N,)."""
+    poses, groups = [], []
+    for i, e in enumerate(entries):
+        chi = retargeted_chi(e, body, cache_dir, retarget_fn)
+        poses.append(chi[:, 6:])
+        groups.append(np.full(len(chi), i))
+    return np.concatenate(poses), np.concatenate(groups)
+
+
+def select_samples(poses: np.ndarray, samples: int, selection: str = "uniform") -> np.ndarray:
+    """Indices of ``samples`` of the pool (N, n): ``uniform`` evenly spaced in the pool's order
+    (its time order), ``farthest`` by farthest-point sampling from the first pose."""
+    if selection not in SELECTIONS:
+        raise ValueError(f"selection={selection!r}: allowed {', '.join(SELECTIONS)}")
+    N = len(poses)
+    if samples >= N:
+        return np.arange(N)
+    if selection == "uniform":
+        return np.unique(np.linspace(0, N - 1, samples).round().astype(int))
+    pick = [0]
+    d2 = ((poses - poses[0]) ** 2).sum(axis=1)
+    for _ in range(samples - 1):
+        pick.append(int(d2.argmax()))
+        d2 = np.minimum(d2, ((poses - poses[pick[-1]]) ** 2).sum(axis=1))
+    return np.array(sorted(pick))
+
+
+def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSplit | None = None,
+                     samples: int = 2000, *, types: tuple[str, ...] | None = None,
+                     selection: str = "uniform", cache_dir: str | Path | None = None,
+                     retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None,
+                     licence: str = BANDAI_NAMCO_LICENCE) -> ParzenPrior:
+    """The Parzen prior (Eq. 15-16, sigma = max nearest-neighbour distance) on ``samples`` poses
+    of real motion: every frame of the clips of the split's train types (or ``types``, which
+    must be train types: a held-out type raises before any work), retargeted onto ``body``
+    (cached per clip in ``cache_dir``), then ``samples`` of them chosen by ``selection``."""
+    split = split or read_split()
+    types = tuple(types) if types is not None else split.train
+    check_training_types(types, split)
+    if selection not in SELECTIONS:
+        raise ValueError(f"selection={selection!r}: allowed {', '.join(SELECTIONS)}")
+    entries = clip_entries(clips_folder, types)
+    if not entries:
+        raise ValueError(f"clips folder {clips_folder}: no clip of the motion types {', '.join(types)}")
+    check_training_types(sorted({e.motion for e in entries}), split)
+    pool, _ = real_poses(entries, body, cache_dir, retarget_fn)
+    pick = select_samples(pool, samples, selection)
+    version = retarget_version() if retarget_fn is None else "custom"
+    prov = PriorProvenance(licence=licence, motion_types=tuple(sorted({e.motion for e in entries})),
+                           held_out_types=split.held_out, clips=len(entries),
+                           clips_sha256=clips_sha256(entries), pool=len(pool),
+                           selection=f"{selection} ({len(pick)} of {len(pool)} frames)",
+                           retarget=version, body=body.name)
+    source = (f"{len(pick)} poses of {len(entries)} real motion-capture clips "
+              f"({split.dataset or Path(clips_folder).name}; types {', '.join(prov.motion_types)}) "
+              f"retargeted onto body '{body.name}'")
+    return ParzenPrior.fit(pool[pick], body.dof_names[6:], source=source, provenance=prov)
