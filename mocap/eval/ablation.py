@@ -144,6 +144,16 @@ def _key(run: dict, varying: list[str]) -> tuple:
             "+".join(run.get("energy_terms", [])) or "-")
 
 
+def group_runs(runs: list[dict]) -> dict[tuple, list[dict]]:
+    """Runs grouped as the table's rows, in its order: (tracker, data, varying overrides
+    "k=v k2=v2" or "-", particles x layers "25x10" or "-", energy terms "a+b" or "-") -> runs."""
+    varying = varying_overrides(runs)
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in runs:
+        groups[_key(r, varying)].append(r)
+    return dict(sorted(groups.items()))
+
+
 def _mean_std(values: list[float]) -> tuple[float, float | None]:
     a = np.asarray(values, float)
     return float(a.mean()), (float(a.std(ddof=1)) if len(a) > 1 else None)
@@ -152,12 +162,8 @@ def _mean_std(values: list[float]) -> tuple[float, float | None]:
 def table_rows(runs: list[dict]) -> list[dict]:
     """One row per tracker, data, varying overrides (a parameter sweep: one row per value),
     budget and energy terms; means (± std over seeds when there are several)."""
-    varying = varying_overrides(runs)
-    groups: dict[tuple, list[dict]] = defaultdict(list)
-    for r in runs:
-        groups[_key(r, varying)].append(r)
     rows = []
-    for (tracker, data, overrides, budget, terms), rs in sorted(groups.items()):
+    for (tracker, data, overrides, budget, terms), rs in group_runs(runs).items():
         row = {"tracker": tracker, "data": data, "overrides": overrides, "particles_x_layers": budget,
                "energy_terms": terms, "seeds": len(rs),
                "sec_per_frame": float(np.mean([r["sec_per_frame"] for r in rs])),
@@ -230,34 +236,13 @@ def write_csv(rows: list[dict], path: Path) -> None:
         w.writerows(rows)
 
 
-def plot(rows: list[dict], path: Path) -> None:
-    import matplotlib
+def plot(rows: list[dict], path: Path, runs: list[dict] | None = None) -> None:
+    """ablation.png at ``path`` (:func:`mocap.viz.ablation_plots.tradeoff_figure`: per dataset,
+    error against time per frame, the oracle as a line) and, when ``runs`` (:func:`collect`'s)
+    are given, ablation_frames.png beside it (per-frame error curves)."""
+    from mocap.viz.ablation_plots import frames_figure, save, tradeoff_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
-    for r in rows:
-        if "mpjpe_mean_mm" not in r:
-            continue
-        ax.errorbar(r["sec_per_frame"], r["mpjpe_mean_mm"], yerr=r["mpjpe_std_mm"] or 0.0, fmt="o", capsize=3)
-        label = r["overrides"] if r.get("overrides", "-") != "-" else r["particles_x_layers"]
-        ax.annotate(f"{r['tracker']} {label}\n{r['data']}",
-                    (r["sec_per_frame"], r["mpjpe_mean_mm"]), fontsize=7,
-                    xytext=(4, 4), textcoords="offset points")
-    ax.set_xscale("log")
-    # plain numbers on the time axis (the log scale writes 1.1x10^0, 1.2x10^0, ...); the
-    # minor ticks labelled only over a narrow range, where there is no major tick to read
-    from matplotlib.ticker import FuncFormatter, NullFormatter
-
-    times = [r["sec_per_frame"] for r in rows if "mpjpe_mean_mm" in r and r["sec_per_frame"] > 0]
-    plain = FuncFormatter(lambda v, _: f"{v:g}")
-    ax.xaxis.set_major_formatter(plain)
-    narrow = bool(times) and max(times) < 3 * min(times)
-    ax.xaxis.set_minor_formatter(plain if narrow else NullFormatter())
-    ax.set_xlabel("time per frame (s, log)")
-    ax.set_ylabel("mean joint error (mm)")
-    ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    path = Path(path)
+    save(tradeoff_figure(rows), path)
+    if runs is not None:
+        save(frames_figure(runs), path.with_name("ablation_frames.png"))
