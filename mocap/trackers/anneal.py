@@ -34,6 +34,7 @@ import numpy as np
 
 from mocap.body.root_motion import interpolate_root, perturb_root, root_mean, root_spread
 from mocap.compiled import HAVE_NUMBA, njit  # compiled bisection of the betas; numpy is the fallback
+from mocap.settings import check
 
 EnergyFn = Callable[[np.ndarray], np.ndarray]
 #: (particles (P, D), std (D,), limits (D, 2), rng, root_point (3,) or None) -> particles (P, D)
@@ -55,12 +56,13 @@ class APFSettings:
                                     # lowest-energy particle seen in any layer
 
     def __post_init__(self) -> None:
-        if self.particles < 2 or self.layers < 1:
-            raise ValueError("the APF needs at least 2 particles and 1 layer")
-        if self.estimate not in ("mean", "best"):
-            raise ValueError(f"estimate must be 'mean' or 'best', got {self.estimate!r}")
-        if not 0.0 < self.survival < 1.0:
-            raise ValueError(f"survival rate must be in (0, 1), got {self.survival}")
+        check(self, "particles", self.particles >= 2, "an integer >= 2")
+        check(self, "layers", self.layers >= 1, "an integer >= 1")
+        check(self, "survival", 0.0 < self.survival < 1.0, "(0, 1)")
+        check(self, "diffusion", self.diffusion > 0.0, "> 0")
+        check(self, "shrink", 0.0 < self.shrink <= 1.0, "(0, 1]")
+        check(self, "min_std_fraction", self.min_std_fraction >= 0.0, ">= 0")
+        check(self, "estimate", self.estimate in ("mean", "best"), "'mean' or 'best'")
 
 
 @dataclass(frozen=True)

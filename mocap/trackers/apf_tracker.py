@@ -4,22 +4,23 @@ and ``apf_prior`` (25 x 10, with the pose prior E_P), Zhang et al. 2013, Sec. 4.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for
+from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.settings import fields_of
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import StepDiagnostics
-from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
+from mocap.trackers.initialization import SilhouetteInitialisation
 from mocap.trackers.step import AnnealedStep
+from mocap.trackers.tracker_settings import APFTrackerSettings
 
 
 def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: float) -> np.ndarray:
@@ -27,22 +28,36 @@ def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: f
     return np.r_[np.full(3, translation), np.full(3, rotation), np.full(body.num_dofs - 6, joint)]
 
 
-class APFTracker(AnnealedStep, SilhouetteInitialisation):
-    """Tracks one subject of known shape from multi-view silhouettes."""
+def internal_scale(rig: Rig, resolution: int) -> float:
+    """Scale factor that brings the rig's longer image side to ``resolution`` px (<= 1)."""
+    if resolution <= 0:
+        raise ValueError(f"resolution must be positive, got {resolution}")
+    return min(1.0, resolution / float(np.max(rig.sizes)))
 
-    def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, weights: EnergyWeights,
-                 rng: np.random.Generator, prior: PosePrior | None = None, scale: float = 0.25,
-                 init_std: Sequence[float] = (0.03, 0.03, 0.08), prediction_damping: float = 1.0,
-                 keep_particles: bool = False, name: str = "apf",
-                 initialization: Mapping | None = None,
-                 energy_mesh: int | None = ENERGY_MESH_FACES):
-        self.body, self.rig, self.settings, self.weights = body, rig, settings, weights
-        self.rng, self.prior, self.scale, self.name = rng, prior, scale, name
-        self.std0 = diffusion_std(body, *init_std)
-        self.damping = prediction_damping
-        self.keep_particles = keep_particles
-        self.init_settings = InitSettings(**dict(initialization or {}))
-        self.energy_mesh = energy_mesh_for(body, energy_mesh)   # None: the full mesh
+
+class APFTracker(AnnealedStep, SilhouetteInitialisation):
+    """Tracks one subject of known shape from multi-view silhouettes.
+
+    settings: the tracker's settings (a bare :class:`APFSettings`: that search, the rest at
+    :class:`APFTrackerSettings`' defaults); weights: the energy weights (the settings' own
+    by default); prior: the pose prior when ``weights.prior``; scale: the internal
+    silhouette scale (by default ``settings.resolution`` px on the longer image side)."""
+
+    def __init__(self, body: BodyModel, rig: Rig, settings: APFTrackerSettings | APFSettings,
+                 weights: EnergyWeights | None, rng: np.random.Generator, prior: PosePrior | None = None,
+                 scale: float | None = None, name: str = "apf"):
+        if not isinstance(settings, APFTrackerSettings):
+            settings = APFTrackerSettings(**fields_of(settings, APFSettings))
+        self.tracker_settings = settings
+        self.body, self.rig, self.settings = body, rig, settings.search
+        self.weights = settings.energy if weights is None else weights
+        self.rng, self.prior, self.name = rng, prior, name
+        self.scale = internal_scale(rig, settings.resolution) if scale is None else scale
+        self.std0 = diffusion_std(body, *settings.init_std)
+        self.damping = settings.prediction_damping
+        self.keep_particles = settings.keep_particles
+        self.init_settings = settings.initialization
+        self.energy_mesh = energy_mesh_for(body, settings.energy_mesh)   # None: the full mesh
         self.init_rng = rng
         self.history: list[np.ndarray] = []
         self.shaped = None

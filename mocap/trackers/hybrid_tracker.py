@@ -11,24 +11,23 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Mapping
 
 import numpy as np
 
-from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for
+from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
-from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.energy.total import FrameEnergy
 from mocap.local.misalignment import LimbCheck, limb_chains
 from mocap.trackers.anneal import anneal, perturb
-from mocap.trackers.apf import APFSettings
-from mocap.trackers.apf_tracker import diffusion_std
+from mocap.trackers.apf_tracker import diffusion_std, internal_scale
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.tracker_settings import HybridSettings
 
 
 def restart_fraction(value: float) -> float:
@@ -93,28 +92,24 @@ def library_poses(body: BodyModel, angles: np.ndarray, dof_names, mirrored: bool
 
 
 class HybridTracker(LocalTracker):
-    def __init__(self, body: BodyModel, rig: Rig, rng: np.random.Generator, settings: APFSettings,
-                 weights: EnergyWeights, prior: PosePrior | None, scale: float,
-                 init_std: tuple[float, float, float] = (0.03, 0.03, 0.25),
-                 refine_iterations: int = 3, keep_particles: bool = False, name: str = "hybrid",
-                 restart: float = 0.0, library: np.ndarray | None = None, restart_from_library: float = 0.0,
-                 patrol: int = 0, patrol_agreement: float = 0.0, patrol_margin: float = 0.0,
-                 energy_mesh: int | None = ENERGY_MESH_FACES, **local: Mapping):
-        super().__init__(body, rig, name=name, rng=rng, **local)
-        self.rng, self.settings, self.weights, self.prior = rng, settings, weights, prior
-        self.scale, self.std0 = scale, diffusion_std(body, *init_std)
-        self.refine_iterations, self.keep_particles = refine_iterations, keep_particles
-        self.restart = restart_fraction(restart)
-        self.library, self.restart_from_library = library, restart_fraction(restart_from_library)
-        if patrol < 0:
-            raise ValueError(f"patrol must be >= 0 frames, got {patrol}")
-        self.patrol = int(patrol)
-        if not 0.0 <= patrol_agreement <= 1.0 or not 0.0 <= patrol_margin < 1.0:
-            raise ValueError(f"patrol_agreement must be in [0, 1] and patrol_margin in [0, 1), got "
-                             f"{patrol_agreement} and {patrol_margin}")
-        self.patrol_agreement, self.patrol_margin = float(patrol_agreement), float(patrol_margin)
+    """settings: :class:`HybridSettings`; prior: the pose prior when ``settings.apf.energy.prior``;
+    library: the restarts' motion library (rows (T, D), :func:`library_poses`), None: the
+    restarts draw uniformly within the joint limits."""
+
+    def __init__(self, body: BodyModel, rig: Rig, rng: np.random.Generator, settings: HybridSettings,
+                 prior: PosePrior | None = None, library: np.ndarray | None = None, name: str = "hybrid"):
+        super().__init__(body, rig, settings.local, name=name, rng=rng)
+        self.init_settings = settings.initialization
+        self.hybrid_settings = a = settings.apf
+        self.rng, self.settings, self.weights, self.prior = rng, a.search, a.energy, prior
+        self.scale, self.std0 = internal_scale(rig, a.resolution), diffusion_std(body, *a.init_std)
+        self.refine_iterations, self.keep_particles = a.refine_iterations, settings.keep_particles
+        self.restart = restart_fraction(a.restart)
+        self.library, self.restart_from_library = library, restart_fraction(a.restart_from_library)
+        self.patrol = int(a.patrol)
+        self.patrol_agreement, self.patrol_margin = float(a.patrol_agreement), float(a.patrol_margin)
         self.chains = limb_chains(body)
-        self.energy_mesh = energy_mesh_for(body, energy_mesh)   # None: the full mesh
+        self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
 
     def patrol_check(self, frame: Frame, check: LimbCheck) -> LimbCheck | None:
         """On every ``patrol``-th frame whose check flagged nothing, the check with one limb chain

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Mapping
 
 import numpy as np
 
@@ -17,10 +16,12 @@ from mocap.local.misalignment import MisalignmentDetector
 from mocap.local.optimize import optimize_pose
 from mocap.local.sift import SiftTracker
 from mocap.local.solver import PointLines
+from mocap.settings import fields_of, with_overrides
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
-from mocap.trackers.shape_search import ShapeRefinement, refine_shape, shifted
+from mocap.trackers.shape_search import refine_shape, shifted
+from mocap.trackers.tracker_settings import LocalSettings, LocalStepSettings
 
 
 def merge(parts: list[PointLines]) -> PointLines:
@@ -35,37 +36,36 @@ def merge(parts: list[PointLines]) -> PointLines:
 class LocalTracker(SilhouetteInitialisation):
     """Local optimisation only: fast, accurate while the motion is slow, cannot recover.
 
-    ``shape``: options of :class:`mocap.trackers.shape_search.ShapeRefinement` (off by
+    settings: :class:`LocalSettings` (or the local step alone, :class:`LocalStepSettings`,
+    with the default initialisation); keyword ``overrides`` update them key by key
+    (e.g. ``sift={"enabled": False}``). ``settings.shape``: the shape refinement (off by
     default): every ``every`` frames the shape is searched again on recent keyframes, their
     poses held (the estimate of that frame onwards carries the new shape)."""
 
-    def __init__(self, body: BodyModel, rig: Rig, iterations: int = 10, tolerance: float = 1e-4,
-                 damping: float = 1e-3, prediction_damping: float = 1.0,
-                 contour: Mapping | None = None, sift: Mapping | None = None,
-                 misalignment: Mapping | None = None, name: str = "local",
-                 rng: np.random.Generator | None = None, initialization: Mapping | None = None,
-                 energy_tolerance: float = 0.0, shape: Mapping | None = None):
+    def __init__(self, body: BodyModel, rig: Rig, settings: LocalStepSettings | None = None,
+                 name: str = "local", rng: np.random.Generator | None = None, **overrides):
+        settings = with_overrides(LocalSettings() if settings is None else settings, overrides)
         self.body, self.rig, self.name = body, rig, name
-        self.shape_settings = ShapeRefinement(**dict(shape or {}))
+        self.local_settings = settings
+        self.shape_settings = settings.shape
         self.init_rng = rng if rng is not None else np.random.default_rng(0)
-        self.init_settings = InitSettings(**dict(initialization or {}))
-        self.iterations, self.tolerance, self.damping = iterations, tolerance, damping
-        self.energy_tolerance = energy_tolerance
-        self.prediction_damping = prediction_damping
-        self.contour_cfg = dict(contour or {})
-        self.sift_cfg = dict(sift or {"enabled": True})
-        self.misalignment_cfg = dict(misalignment or {})
+        self.init_settings = getattr(settings, "initialization", None) or InitSettings()
+        self.iterations, self.tolerance = settings.iterations, settings.tolerance
+        self.damping = settings.damping
+        self.energy_tolerance = settings.energy_tolerance
+        self.prediction_damping = settings.prediction_damping
         self.shaped = None
         self.history: list[np.ndarray] = []
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         chi = self.checked_pose(chi)
         self.set_shape(alpha)
-        self.matcher = ContourMatcher(self.body, self.rig, **self.contour_cfg)
-        sift = dict(self.sift_cfg)
-        self.sift = SiftTracker(self.body, self.rig, **{k: v for k, v in sift.items() if k != "enabled"}) \
-            if sift.pop("enabled", True) else None
-        self.detector = MisalignmentDetector(self.body, self.rig, **self.misalignment_cfg)
+        s = self.local_settings
+        self.matcher = ContourMatcher(self.body, self.rig, **fields_of(s.contour, type(s.contour)))
+        self.sift = SiftTracker(self.body, self.rig, **fields_of(s.sift, type(s.sift), skip=("enabled",))) \
+            if s.sift.enabled else None
+        self.detector = MisalignmentDetector(self.body, self.rig,
+                                             **fields_of(s.misalignment, type(s.misalignment)))
         self.history = [chi]
         self.last_images = None
         self.keyframes: deque = deque(maxlen=self.shape_settings.keyframes)   # (index, chi, masks)

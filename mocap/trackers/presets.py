@@ -1,33 +1,59 @@
-"""The named trackers, in Python: each is a factory of :mod:`mocap.trackers.factory` and the
-arguments that differ from the factory's defaults (which are the one source of defaults).
+"""The named trackers: each is a settings object (the settings dataclass's defaults with a
+preset's differences applied) and the function that builds the tracker from it.
 
-``conf/tracker/<name>.yaml`` states the same overrides for Hydra (``apf_prior`` and
-``apf_25x10`` compose ``apf``, ``hybrid`` composes ``local`` and ``apf_prior``);
-``tests/trackers/test_presets.py`` checks that both give the same tracker.
+``mocap_cli/conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
+differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``);
+``tests/trackers/test_settings.py`` checks that both give the same settings.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any
 
+from mocap.settings import with_overrides
 from mocap.trackers import factory
-from mocap.trackers.factory import merge
+from mocap.trackers.markers.settings import MarkerSettings
+from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, LocalSettings
 
-#: name -> (factory, overrides of its defaults)
-PRESETS: dict[str, tuple[Callable, dict]] = {
-    "apf": (factory.make_apf_tracker, {}),
-    "apf_prior": (factory.make_apf_tracker, {"particles": 25, "layers": 10, "energy": {"prior": 1.0}}),
-    "apf_25x10": (factory.make_apf_tracker, {"particles": 25, "layers": 10}),
-    "local": (factory.make_local_tracker, {}),
-    "hybrid": (factory.make_hybrid_tracker, {}),
-    "marker_apf": (factory.make_marker_tracker, {}),
+
+@dataclass(frozen=True)
+class Preset:
+    """build: (body, rig, rng, settings, name) -> tracker; settings: the preset's."""
+
+    build: Callable
+    settings: Any
+
+
+#: each tracker config's settings dataclass, whose defaults are the config's defaults
+SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSettings,
+                                     "hybrid": HybridSettings, "marker_apf": MarkerSettings}
+
+_APF_25X10 = replace(APFTrackerSettings(), particles=25, layers=10)
+
+#: name -> preset
+PRESETS: dict[str, Preset] = {
+    "apf": Preset(factory.build_apf_tracker, APFTrackerSettings()),
+    "apf_25x10": Preset(factory.build_apf_tracker, _APF_25X10),
+    "apf_prior": Preset(factory.build_apf_tracker,
+                        replace(_APF_25X10, energy=replace(_APF_25X10.energy, prior=1.0))),
+    "local": Preset(factory.build_local_tracker, LocalSettings()),
+    "hybrid": Preset(factory.build_hybrid_tracker, HybridSettings()),
+    "marker_apf": Preset(factory.build_marker_tracker, MarkerSettings()),
 }
 
 
-def make_tracker(name: str, *, body, rig, rng, **overrides):
-    """The tracker ``name`` (a key of :data:`PRESETS`) with ``overrides`` of its settings
-    (nested mappings, e.g. ``energy={"smoothness": 0.1}``, are merged)."""
+def preset_settings(name: str, overrides: Mapping | None = None):
+    """The settings of tracker ``name`` (a key of :data:`PRESETS`) with ``overrides`` (nested
+    mappings update nested settings key by key; unknown keys and out-of-range values raise a
+    one-line ValueError naming the key)."""
     if name not in PRESETS:
-        raise ValueError(f"unknown tracker {name!r}; available: {sorted(PRESETS)}")
-    make, preset = PRESETS[name]
-    return make(body=body, rig=rig, rng=rng, name=name, **merge(preset, overrides))
+        raise ValueError(f"unknown tracker {name!r}; available: {', '.join(sorted(PRESETS))}")
+    return with_overrides(PRESETS[name].settings, overrides)
+
+
+def make_tracker(name: str, *, body, rig, rng, **overrides):
+    """The tracker ``name`` with ``overrides`` of its settings (e.g. ``particles=50``,
+    ``energy={"smoothness": 0.1}``)."""
+    return PRESETS[name].build(body, rig, rng, preset_settings(name, overrides), name)

@@ -20,6 +20,7 @@ from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import Rig, project
 from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget, chamfer_energy, silhouette_target
 from mocap.render import get_rasterizer
+from mocap.settings import check
 from mocap.trackers.apf import APFSettings, run_apf
 
 
@@ -90,12 +91,12 @@ class ShapeRefinement:
     min_gain: float = 0.01
 
     def __post_init__(self):
-        if self.every < 0 or self.keyframes < 1 or self.stride < 1 or self.components < 1:
-            raise ValueError(f"shape refinement: every >= 0, keyframes, stride, components >= 1: {self}")
-        if self.particles < 2 or self.layers < 1 or self.std <= 0 or self.shift < 0:
-            raise ValueError(f"shape refinement: particles >= 2, layers >= 1, std > 0, shift >= 0: {self}")
-        if self.resolution < 1 or self.check_resolution < 1:
-            raise ValueError(f"shape refinement: resolution and check_resolution >= 1 px: {self}")
+        check(self, "every", self.every >= 0, "an integer >= 0 frames (0: off)")
+        for name in ("keyframes", "stride", "components", "layers", "resolution", "check_resolution"):
+            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
+        check(self, "particles", self.particles >= 2, "an integer >= 2")
+        check(self, "std", self.std > 0, "> 0")
+        check(self, "shift", self.shift >= 0, ">= 0 m")
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocap.settings import check
+
 
 @dataclass(frozen=True)
 class OffsetLearning:
@@ -27,6 +29,11 @@ class OffsetLearning:
     frames: int = 0
     max_norm: float = 0.08
     min_samples: int = 3
+
+    def __post_init__(self) -> None:
+        check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
+        check(self, "max_norm", self.max_norm >= 0, ">= 0 m")
+        check(self, "min_samples", self.min_samples >= 1, "an integer >= 1")
 
 
 def local_residuals(transforms: np.ndarray, points: np.ndarray, rest: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ import numpy as np
 
 from mocap.cameras import Rig
 from mocap.energy.markers import HAVE_NUMBA, MarkerObservation, pinhole_project
+from mocap.settings import check
 
 if HAVE_NUMBA:
     from mocap.energy.marker_kernel import nearest_candidates
@@ -40,6 +41,14 @@ class Refinement:
     use_confidence: bool = True
     step: float = 1e-4
     damping: float = 1e-3
+
+    def __post_init__(self) -> None:
+        check(self, "iterations", self.iterations >= 0, "an integer >= 0 (0: off)")
+        check(self, "gate_px", self.gate_px is None or self.gate_px > 0, "null or > 0 px")
+        check(self, "huber_px", self.huber_px > 0, "> 0 px")
+        check(self, "prior_std", self.prior_std > 0, "> 0")
+        check(self, "step", self.step > 0, "> 0")
+        check(self, "damping", self.damping >= 0, ">= 0")
 
 
 def associate(u: np.ndarray, front: np.ndarray, obs: MarkerObservation,

@@ -14,8 +14,7 @@ markers and on OpenPose keypoints.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -28,7 +27,6 @@ from mocap.cameras import Rig, fundamental_matrices, view_rigs
 from mocap.data.openpose import capture_centre
 from mocap.energy.markers import (
     MarkerEnergy,
-    MarkerLikelihood,
     MarkerObservation,
     arrange_detections,
     reprojection_errors,
@@ -40,8 +38,9 @@ from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
 from mocap.trackers.markers.anneal import PartGroup, part_groups, run_annealing
 from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
-from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
-from mocap.trackers.markers.refine import Refinement, refine_pose
+from mocap.trackers.markers.offsets import local_residuals, robust_offsets
+from mocap.trackers.markers.refine import refine_pose
+from mocap.trackers.markers.settings import MarkerInit, MarkerSettings  # noqa: F401  (MarkerInit: re-exported)
 from mocap.trackers.markers.startup import (
     fit_shape,
     neutral_pose,
@@ -52,50 +51,21 @@ from mocap.trackers.markers.startup import (
 from mocap.trackers.step import AnnealedStep
 
 
-@dataclass(frozen=True)
-class MarkerInit:
-    """Self-initialisation: passes of annealed inverse kinematics to the triangulated
-    landmarks (particles x layers each, first-pass diffusion ``std`` = (translation m,
-    rotation rad, joints rad) shrinking by ``shrink`` per pass); ``length_sigma``: the
-    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape;
-    ``outlier_sigma``: measured distances this many shape-model sigmas from their mean are
-    ignored by the fit; ``bound_sigma``: a fitted bone outside the model's mean +- this many
-    sigmas makes the start-up shrink the fitted coefficients towards the mean until every bone
-    is inside (flagged); ``association_px``: the
-    skeleton epipolar threshold of the cross-view association (None: the gate);
-    ``refine_iterations``: Gauss-Newton steps on the reprojection error that pose each shape
-    hypothesis before it is scored (0: scored at the annealed IK's pose)."""
-
-    passes: int = 3
-    particles: int = 300
-    layers: int = 10
-    std: Sequence[float] = (0.1, 0.3, 0.6)
-    shrink: float = 0.4
-    length_sigma: float = 0.02
-    fit_shape: bool = True
-    outlier_sigma: float = 4.0
-    bound_sigma: float = 3.0
-    association_px: float | None = None
-    refine_iterations: int = 10
-
-
 class MarkerAPFTracker(AnnealedStep):
     """Tracks one subject from 2D detections (see the module docstring)."""
 
-    def __init__(self, body: BodyModel, rig: Rig, settings: APFSettings, likelihood: MarkerLikelihood,
-                 rng: np.random.Generator, landmarks: str | Sequence = "auto",
-                 init_std: Sequence[float] = (0.02, 0.03, 0.12), prediction_damping: float = 1.0,
-                 min_confidence: float = 0.0, init: MarkerInit = MarkerInit(), crossover: bool = True,
-                 keep_particles: bool = False, name: str = "marker_apf",
-                 refine: Refinement | None = None, offsets: OffsetLearning | None = None):
-        self.body, self.rig, self.settings, self.likelihood = body, rig, settings, likelihood
-        self.rng, self.name, self.keep_particles = rng, name, keep_particles
-        self.landmark_spec = landmarks
-        self.std0 = diffusion_std(body, *init_std)
-        self.damping = prediction_damping
-        self.min_confidence = min_confidence
-        self.init = init
-        self.crossover = crossover
+    def __init__(self, body: BodyModel, rig: Rig, settings: MarkerSettings, rng: np.random.Generator,
+                 name: str = "marker_apf"):
+        self.body, self.rig, self.tracker_settings = body, rig, settings
+        self.settings = settings.search
+        self.likelihood = settings.likelihood(rig.sizes)
+        self.rng, self.name, self.keep_particles = rng, name, settings.keep_particles
+        self.landmark_spec = settings.landmark_spec()
+        self.std0 = diffusion_std(body, *settings.init_std)
+        self.damping = settings.prediction_damping
+        self.min_confidence = settings.min_confidence
+        self.init = settings.init
+        self.crossover = settings.crossover
         self.groups: list[PartGroup] = []
         self.pinhole = pinhole_rig(rig)
         self._views = view_rigs(rig)                  # one-camera rigs, for arrange_detections
@@ -105,8 +75,8 @@ class MarkerAPFTracker(AnnealedStep):
         self.history: list[np.ndarray] = []
         self.start_up_flags: list[str] = []
         self.start_up: dict = {}
-        self.refinement = refine or Refinement()
-        self.offset_learning = offsets or OffsetLearning()
+        self.refinement = settings.refine
+        self.offset_learning = settings.offsets
         self.offsets: np.ndarray | None = None          # (L, 3) once learned
         self._offset_samples: list[np.ndarray] = []
         self._refined: RefineTrace | None = None
@@ -319,17 +289,3 @@ class MarkerAPFTracker(AnnealedStep):
         return StepDiagnostics(energy_terms=terms, anneal=trace, landmarks=report, timings=timings,
                                marker_refine=self._refined)
 
-
-def make_refinement(settings: Mapping | None) -> Refinement:
-    return Refinement(**dict(settings or {}))
-
-
-def make_offsets(settings: Mapping | None) -> OffsetLearning:
-    return OffsetLearning(**dict(settings or {}))
-
-
-def make_init(settings: Mapping | None) -> MarkerInit:
-    s = dict(settings or {})
-    if "std" in s:
-        s["std"] = tuple(float(v) for v in s["std"])
-    return MarkerInit(**s)

@@ -1,0 +1,120 @@
+"""The marker tracker's settings (``marker_apf``): one frozen dataclass, the only place its
+defaults are written, with nested settings for the start-up (:class:`MarkerInit`), the
+per-frame refinement (:class:`~mocap.trackers.markers.refine.Refinement`) and the learned
+keypoint offsets (:class:`~mocap.trackers.markers.offsets.OffsetLearning`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.energy.markers import MarkerLikelihood
+from mocap.settings import check, fields_of
+from mocap.trackers.anneal import APFSettings
+from mocap.trackers.markers.offsets import OffsetLearning
+from mocap.trackers.markers.refine import Refinement
+
+
+@dataclass(frozen=True)
+class MarkerInit:
+    """Self-initialisation: passes of annealed inverse kinematics to the triangulated
+    landmarks (particles x layers each, first-pass diffusion ``std`` = (translation m,
+    rotation rad, joints rad) shrinking by ``shrink`` per pass); ``length_sigma``: the
+    bone-length noise (m) of the shape fit; ``fit_shape``: False keeps the mean shape;
+    ``outlier_sigma``: measured distances this many shape-model sigmas from their mean are
+    ignored by the fit; ``bound_sigma``: a fitted bone outside the model's mean +- this many
+    sigmas makes the start-up shrink the fitted coefficients towards the mean until every bone
+    is inside (flagged); ``association_px``: the
+    skeleton epipolar threshold of the cross-view association (None: the gate);
+    ``refine_iterations``: Gauss-Newton steps on the reprojection error that pose each shape
+    hypothesis before it is scored (0: scored at the annealed IK's pose)."""
+
+    passes: int = 3
+    particles: int = 300
+    layers: int = 10
+    std: tuple[float, float, float] = (0.1, 0.3, 0.6)
+    shrink: float = 0.4
+    length_sigma: float = 0.02
+    fit_shape: bool = True
+    outlier_sigma: float = 4.0
+    bound_sigma: float = 3.0
+    association_px: float | None = None
+    refine_iterations: int = 10
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "std", tuple(float(v) for v in self.std))
+        check(self, "passes", self.passes >= 1, "an integer >= 1")
+        check(self, "particles", self.particles >= 2, "an integer >= 2")
+        check(self, "layers", self.layers >= 1, "an integer >= 1")
+        check(self, "std", len(self.std) == 3 and min(self.std) >= 0, "3 numbers >= 0")
+        check(self, "shrink", 0.0 < self.shrink <= 1.0, "(0, 1]")
+        check(self, "length_sigma", self.length_sigma > 0, "> 0 m")
+        check(self, "outlier_sigma", self.outlier_sigma > 0, "> 0")
+        check(self, "bound_sigma", self.bound_sigma > 0, "> 0")
+        check(self, "association_px", self.association_px is None or self.association_px > 0,
+              "null or > 0 px")
+        check(self, "refine_iterations", self.refine_iterations >= 0, "an integer >= 0")
+
+
+@dataclass(frozen=True)
+class MarkerSettings(APFSettings):
+    """``marker_apf`` (Canton-Ferrer et al. 2010): the annealed search (100 x 6, survival
+    rate 0.25, shrink 0.85; ``crossover``: each limb resampled by its own landmarks), its
+    first-layer diffusion ``init_std`` (twist v m, twist omega rad, angles rad), the
+    constant-velocity prediction's ``prediction_damping``; the likelihood
+    (:class:`~mocap.energy.markers.MarkerLikelihood`: ``gate`` the outlier threshold tau as a
+    fraction of the image diagonal, ``min_views``, ``coherence_radius`` m,
+    ``coherence_weight``, ``use_confidence``); ``landmarks``: ``auto`` (every detection label
+    the catalogue knows) or a list of names / landmark entries; ``min_confidence``: drop
+    detections below it; the start-up (``init``), the refinement (``refine``), the offsets
+    (``offsets``) and ``keep_particles``."""
+
+    layers: int = 6
+    survival: float = 0.25
+    shrink: float = 0.85
+    crossover: bool = True
+    init_std: tuple[float, float, float] = (0.02, 0.03, 0.12)
+    prediction_damping: float = 1.0
+    gate: float = 0.04
+    min_views: int = MarkerLikelihood.min_views
+    coherence_radius: float = MarkerLikelihood.coherence_radius
+    coherence_weight: float = MarkerLikelihood.coherence_weight
+    use_confidence: bool = MarkerLikelihood.use_confidence
+    landmarks: str | tuple = "auto"
+    min_confidence: float = 0.0
+    init: MarkerInit = MarkerInit()
+    refine: Refinement = Refinement()
+    offsets: OffsetLearning = OffsetLearning()
+    keep_particles: bool = False
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check(self, "init_std", len(self.init_std) == 3 and min(self.init_std) >= 0, "3 numbers >= 0")
+        check(self, "prediction_damping", 0.0 <= self.prediction_damping <= 1.0, "[0, 1]")
+        check(self, "gate", 0.0 < self.gate <= 1.0, "(0, 1], a fraction of the image diagonal")
+        check(self, "min_views", self.min_views >= 1, "an integer >= 1")
+        check(self, "coherence_radius", self.coherence_radius > 0, "> 0 m")
+        check(self, "coherence_weight", self.coherence_weight >= 0, ">= 0")
+        check(self, "min_confidence", 0.0 <= self.min_confidence <= 1.0, "[0, 1]")
+        check(self, "landmarks", isinstance(self.landmarks, str | tuple),
+              "a landmark set's name (auto) or a list of landmark names / entries")
+
+    @property
+    def search(self) -> APFSettings:
+        """The annealing search alone."""
+        return APFSettings(**fields_of(self, APFSettings))
+
+    def likelihood(self, image_sizes: np.ndarray) -> MarkerLikelihood:
+        """The likelihood for cameras of ``image_sizes`` (C, 2) px: the gate in pixels is
+        ``gate`` times the mean image diagonal."""
+        diagonal = float(np.hypot(*np.asarray(image_sizes, np.float64).mean(axis=0)))
+        return MarkerLikelihood(gate_px=self.gate * diagonal, min_views=self.min_views,
+                                coherence_radius=self.coherence_radius,
+                                coherence_weight=self.coherence_weight, use_confidence=self.use_confidence)
+
+    def landmark_spec(self) -> str | list:
+        """``landmarks`` as :func:`mocap.body.catalogue.make_landmark_set` reads it."""
+        if isinstance(self.landmarks, str):
+            return self.landmarks
+        return [x if isinstance(x, str) else dict(x) for x in self.landmarks]
