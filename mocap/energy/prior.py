@@ -145,8 +145,9 @@ class ParzenPrior:
     def load(path: str | Path) -> ParzenPrior:
         path = Path(path)
         if not path.is_file():
-            raise FileNotFoundError(f"pose prior file not found: {path} (build it with "
-                                    "experiments/train_prior.py or studies/prior_heldout.py --train)")
+            raise FileNotFoundError(f"pose prior file not found: {path} (build the procedural "
+                                    "prior with `mocap train-prior`, the real-motion one with "
+                                    "studies/prior_heldout.py --ship)")
         try:
             with np.load(path, allow_pickle=False) as z:
                 fmt = str(z.get("format", ""))

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -124,35 +124,44 @@ def clips_sha256(entries: list[ClipEntry]) -> str:
 
 
 def retarget_version() -> str:
-    """The retargeting's version: ``mocap.clips.RETARGET_VERSION`` if it has one, else a hash of
-    the retargeting module's source (any change re-retargets)."""
-    import mocap.clips as clips
+    """The retargeting's version: ``mocap.clips.retarget.RETARGET_VERSION`` if it has one, else a
+    hash of the sources it depends on (retarget, fit, bvh, names and the name maps: any change
+    re-retargets)."""
+    import mocap.clips.retarget as rt
 
-    version = getattr(clips, "RETARGET_VERSION", None)
+    version = getattr(rt, "RETARGET_VERSION", None)
     if version is not None:
         return str(version)
-    mod = sys.modules[clips.retarget.__module__]
-    return "src-" + hashlib.sha256(Path(mod.__file__).read_bytes()).hexdigest()[:12]
+    folder = Path(rt.__file__).parent
+    h = hashlib.sha256()
+    for f in sorted([*folder.glob("*.py"), *folder.glob("maps/*.yaml")]):
+        if f.name in ("retarget.py", "fit.py", "bvh.py", "names.py") or f.suffix == ".yaml":
+            h.update(f.name.encode() + f.read_bytes())
+    return "src" + h.hexdigest()[:10]
 
 
-def _retarget_clip(path: Path, body: BodyModel) -> np.ndarray:
-    """χ (F, D) of ``body`` following the clip (mocap.clips's reader and retargeting)."""
-    from mocap.clips import read_bvh, retarget
+def _retarget_clip(path: Path, body: BodyModel, step: int = 1) -> np.ndarray:
+    """χ (F, D) of ``body`` following every ``step``-th frame of the clip (mocap.clips's reader
+    and retargeting)."""
+    from mocap.clips import read_bvh
+    from mocap.clips.retarget import retarget
 
-    result = retarget(read_bvh(path), body)
-    return np.asarray(result.chi, np.float64)
+    return np.asarray(retarget(read_bvh(path), body, step=step).chi, np.float64)
 
 
-def retargeted_chi(entry: ClipEntry, body: BodyModel, cache_dir: str | Path | None,
-                   retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None,
-                   version: str | None = None) -> np.ndarray:
-    """χ (F, D) of a clip retargeted onto ``body``, cached in ``cache_dir`` as
-    ``<body>-<clip sha256[:16]>-<version>.npz`` (None: no cache)."""
-    fn = retarget_fn or _retarget_clip
-    version = version or (retarget_version() if retarget_fn is None else "custom")
+def retargeted_chi(entry: ClipEntry, body: BodyModel, cache_dir: str | Path | None, step: int = 1,
+                   retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None) -> np.ndarray:
+    """χ (F, D) of a clip retargeted onto ``body`` (every ``step``-th frame), cached in
+    ``cache_dir`` as ``<body><dofs hash>-<clip sha256[:16]>-<version>-s<step>.npz`` (None: no
+    cache). retarget_fn(path, body) -> χ replaces mocap.clips's retargeting (tests)."""
+    if retarget_fn is None:
+        version = retarget_version()
+        fn = partial(_retarget_clip, step=step)
+    else:
+        version, fn = "custom", retarget_fn
     key = hashlib.sha256(",".join(body.dof_names).encode()).hexdigest()[:8]
-    name = f"{body.name}{key}-{entry.sha256[:16]}-{version}.npz"
-    cache = None if cache_dir is None else Path(cache_dir) / name
+    cache = None if cache_dir is None else (
+        Path(cache_dir) / f"{body.name}{key}-{entry.sha256[:16]}-{version}-s{step}.npz")
     if cache is not None and cache.is_file():
         with np.load(cache) as z:
             return z["chi"]
@@ -163,18 +172,19 @@ def retargeted_chi(entry: ClipEntry, body: BodyModel, cache_dir: str | Path | No
     if cache is not None:
         cache.parent.mkdir(parents=True, exist_ok=True)
         tmp = cache.with_name(cache.name + ".tmp.npz")
-        np.savez(tmp, chi=chi, clip=str(entry.path.name), sha256=entry.sha256, version=version)
+        np.savez(tmp, chi=chi, clip=str(entry.path.name), sha256=entry.sha256, version=version, step=step)
         tmp.replace(cache)
     return chi
 
 
 def real_poses(entries: list[ClipEntry], body: BodyModel, cache_dir: str | Path | None = None,
-               retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None
+               step: int = 1, retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None
                ) -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles of every frame of the clips: poses (N, D - 6), clip id per pose (N,)."""
+    """Joint angles of every ``step``-th frame of the clips: poses (N, D - 6), clip id per pose
+    (N,) (the index into ``entries``)."""
     poses, groups = [], []
     for i, e in enumerate(entries):
-        chi = retargeted_chi(e, body, cache_dir, retarget_fn)
+        chi = retargeted_chi(e, body, cache_dir, step, retarget_fn)
         poses.append(chi[:, 6:])
         groups.append(np.full(len(chi), i))
     return np.concatenate(poses), np.concatenate(groups)
@@ -200,13 +210,14 @@ def select_samples(poses: np.ndarray, samples: int, selection: str = "uniform") 
 
 def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSplit | None = None,
                      samples: int = 2000, *, types: tuple[str, ...] | None = None,
-                     selection: str = "uniform", cache_dir: str | Path | None = None,
+                     selection: str = "uniform", step: int = 1, cache_dir: str | Path | None = None,
                      retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None,
                      licence: str = BANDAI_NAMCO_LICENCE) -> ParzenPrior:
     """The Parzen prior (Eq. 15-16, sigma = max nearest-neighbour distance) on ``samples`` poses
     of real motion: every frame of the clips of the split's train types (or ``types``, which
     must be train types: a held-out type raises before any work), retargeted onto ``body``
-    (cached per clip in ``cache_dir``), then ``samples`` of them chosen by ``selection``."""
+    (every ``step``-th frame, cached per clip in ``cache_dir``), then ``samples`` of them chosen
+    by ``selection``."""
     split = split or read_split()
     types = tuple(types) if types is not None else split.train
     check_training_types(types, split)
@@ -216,9 +227,9 @@ def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSpl
     if not entries:
         raise ValueError(f"clips folder {clips_folder}: no clip of the motion types {', '.join(types)}")
     check_training_types(sorted({e.motion for e in entries}), split)
-    pool, _ = real_poses(entries, body, cache_dir, retarget_fn)
+    pool, _ = real_poses(entries, body, cache_dir, step, retarget_fn)
     pick = select_samples(pool, samples, selection)
-    version = retarget_version() if retarget_fn is None else "custom"
+    version = (retarget_version() if retarget_fn is None else "custom") + f", every {step} frame(s)"
     prov = PriorProvenance(licence=licence, motion_types=tuple(sorted({e.motion for e in entries})),
                            held_out_types=split.held_out, clips=len(entries),
                            clips_sha256=clips_sha256(entries), pool=len(pool),
