@@ -99,7 +99,7 @@ class HybridTracker(LocalTracker):
     def __init__(self, body: BodyModel, rig: Rig, rng: np.random.Generator, settings: HybridSettings,
                  prior: PosePrior | None = None, library: np.ndarray | None = None, name: str = "hybrid"):
         super().__init__(body, rig, settings.local, name=name, rng=rng)
-        self.init_settings = settings.initialization
+        self.tracker_settings, self.init_settings = settings, settings.initialization
         self.hybrid_settings = a = settings.apf
         self.rng, self.settings, self.weights, self.prior = rng, a.search, a.energy, prior
         self.scale, self.std0 = internal_scale(rig, a.resolution), diffusion_std(body, *a.init_std)

@@ -46,7 +46,7 @@ class LocalTracker(SilhouetteInitialisation):
                  name: str = "local", rng: np.random.Generator | None = None, **overrides):
         settings = with_overrides(LocalSettings() if settings is None else settings, overrides)
         self.body, self.rig, self.name = body, rig, name
-        self.local_settings = settings
+        self.tracker_settings = self.local_settings = settings
         self.shape_settings = settings.shape
         self.init_rng = rng if rng is not None else np.random.default_rng(0)
         self.init_settings = getattr(settings, "initialization", None) or InitSettings()

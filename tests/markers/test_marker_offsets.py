@@ -31,25 +31,18 @@ def test_robust_offsets_take_the_median_clip_and_need_samples():
 
 
 def test_tracker_learns_offsets_and_refines_on_synthetic_markers(body):
-    from pathlib import Path
-
-    import yaml
-
     from mocap.cameras import rig_from_config
     from mocap.data.generate import make_synthetic
     from mocap.eval.metrics import joint_errors
-    from mocap.trackers.factory import make_marker_tracker
+    from mocap.trackers.presets import make_tracker
     from mocap.trackers.run import track_sequence
 
     rig = rig_from_config("humaneva")
     det = {"enabled": True, "detection_rate": 0.9, "false_positive_rate": 0.1, "noise_px": 2.0,
            "occlusion": False}
     seq = make_synthetic(body, rig, motion="walk", frames=8, fps=25, seed=3, masks=False, detections=det)
-    cfg = yaml.safe_load((Path(__file__).resolve().parents[2] / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
-    cfg.pop("_target_")
-    cfg["refine"] = {"iterations": 2}
-    cfg["offsets"] = {"frames": 4}
-    trk = make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(0), **cfg)
+    trk = make_tracker("marker_apf", body=body, rig=rig, rng=np.random.default_rng(0),
+                       refine={"iterations": 2}, offsets={"frames": 4})
     res = track_sequence(trk, seq, seq.gt.chi[0], seq.gt.alpha)
     assert trk.offsets is not None and np.all(np.isfinite(trk.offsets))
     assert np.linalg.norm(trk.offsets, axis=1).max() < 0.03      # markers are the landmarks: ~no offset

@@ -1,29 +1,23 @@
 """Several people with the marker tracker (mocap/trackers/markers/people.py)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-import yaml
 
 from mocap.cameras import rig_from_config
 from mocap.data.crowd import crossing_scene, crowd_detections
 from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
-from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.markers.people import PeopleTracker
+from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of
 
-REPO = Path(__file__).resolve().parents[2]
 LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
 FRAMES = 24
 
 
 def factory(body, rig, seed=0):
-    cfg = yaml.safe_load((REPO / "mocap_cli" / "conf" / "tracker" / "marker_apf.yaml").read_text())
-    cfg.pop("_target_")
     rngs = iter(np.random.default_rng(seed).spawn(10))
-    return lambda: make_marker_tracker(body=body, rig=rig, rng=next(rngs), **cfg)
+    return lambda: make_tracker("marker_apf", body=body, rig=rig, rng=next(rngs))
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,8 @@
 """The marker tracker's start-up with other people in view (mocap/trackers/markers/tracker.py
 initial_estimate, mocap/trackers/markers/associate.py, mocap/body/bone_lengths.py)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-import yaml
 
 from mocap.body.bone_lengths import shrink_to_bounds, skeleton_length_model
 from mocap.body.catalogue import make_landmark_set, probe_poses
@@ -15,20 +12,16 @@ from mocap.data.crowd import crowd_detections
 from mocap.data.motion import generate_motion
 from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
-from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.markers.associate import associate_people, skeletons_of
 from mocap.trackers.markers.startup import pinhole_rig
+from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of
 
-REPO = Path(__file__).resolve().parents[2]
 LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
 
 
 def tracker(body, rig, seed=0, **overrides):
-    cfg = yaml.safe_load((REPO / "mocap_cli" / "conf" / "tracker" / "marker_apf.yaml").read_text())
-    cfg.pop("_target_")
-    cfg.update(overrides)
-    return make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(seed), **cfg)
+    return make_tracker("marker_apf", body=body, rig=rig, rng=np.random.default_rng(seed), **overrides)
 
 
 def two_people(body, rig, offset=(0.7, 0.0, 0.0), frames=1, seed=0):

@@ -1,28 +1,21 @@
 """The marker tracker end to end on synthetic detections (conf/tracker/marker_apf.yaml)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-import yaml
 
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
 from mocap.data.sequence import Detections, Sequence
 from mocap.eval.metrics import joint_errors
 from mocap.trackers.base import Frame
-from mocap.trackers.factory import make_marker_tracker
+from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence
 
-REPO = Path(__file__).resolve().parents[2]
 FRAMES = 12
 
 
 def tracker(body, rig, seed=0, **overrides):
-    cfg = yaml.safe_load((REPO / "mocap_cli" / "conf" / "tracker" / "marker_apf.yaml").read_text())
-    cfg.pop("_target_")
-    cfg.update(overrides)
-    return make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(seed), **cfg)
+    return make_tracker("marker_apf", body=body, rig=rig, rng=np.random.default_rng(seed), **overrides)
 
 
 @pytest.fixture(scope="module")

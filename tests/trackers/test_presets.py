@@ -1,5 +1,5 @@
-"""One source of defaults: the tracker a config composes is the tracker the Python API builds
-(same estimates for the same seed), and the composed configs are the Python presets."""
+"""The tracker a config composes is the tracker the Python API builds (same estimates for the
+same seed); the settings themselves: tests/trackers/test_settings.py."""
 
 from pathlib import Path
 
@@ -12,8 +12,10 @@ from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
 from mocap.trackers.presets import PRESETS, make_tracker
 from mocap.trackers.run import track_sequence
+from mocap_cli.conf_schema import register_configs
 
 CONF = Path(__file__).resolve().parents[2] / "mocap_cli" / "conf"
+register_configs()
 # small budgets, applied to both sides
 FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "layers": 2},
         "apf_25x10": {"particles": 6, "layers": 2}, "local": {"iterations": 2},
@@ -49,6 +51,7 @@ def test_config_tracker_equals_python_api_tracker(name, body, sequences):
                                                           rng=np.random.default_rng(5))
     from_python = make_tracker(name, body=body, rig=seq.rig, rng=np.random.default_rng(5), **FAST[name])
     assert type(from_config) is type(from_python) and from_config.name == from_python.name == name
+    assert from_config.tracker_settings == from_python.tracker_settings
     for attr in ("settings", "weights", "iterations", "refine_iterations", "damping"):
         assert getattr(from_config, attr, None) == getattr(from_python, attr, None), attr
     results = [track_sequence(t, seq, seq.gt.chi[0], seq.gt.alpha) for t in (from_config, from_python)]
@@ -57,13 +60,15 @@ def test_config_tracker_equals_python_api_tracker(name, body, sequences):
     assert not np.array_equal(a[1], a[0])          # it tracked
 
 
-def test_apf_prior_composes_apf_and_hybrid_composes_local_and_apf_prior():
+def test_apf_prior_composes_apf_25x10_and_the_hybrid_its_settings():
     with initialize_config_dir(str(CONF), version_base="1.3"):
         apf = compose("track", overrides=["tracker=apf"]).tracker
         prior = compose("track", overrides=["tracker=apf_prior"]).tracker
+        x25 = compose("track", overrides=["tracker=apf_25x10"]).tracker
         hybrid = compose("track", overrides=["tracker=hybrid"]).tracker
         moved = compose("track", overrides=["tracker=hybrid", "tracker.local.iterations=4"]).tracker
     assert prior._target_ == apf._target_ and (prior.particles, prior.layers) == (25, 10)
-    assert prior.energy.prior == 1.0
+    assert prior.energy.prior == 1.0 and x25.energy.prior == apf.energy.prior == 0.0
+    assert (apf.particles, apf.layers) == (100, 15) and (x25.particles, x25.layers) == (25, 10)
     assert hybrid.local.iterations == 10 and hybrid.apf.particles == 25 and hybrid.apf.energy.prior == 0.0
     assert moved.local.iterations == 4
