@@ -123,6 +123,17 @@ def ring_rig(
     return Rig(tuple(cams))
 
 
+def _plain(value):
+    """Nested mappings and lists (any Mapping / non-string Sequence) as dicts and lists."""
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, tuple):
+        return tuple(_plain(v) for v in value)
+    if isinstance(value, Sequence) and not isinstance(value, (str, bytes)):
+        return [_plain(v) for v in value]
+    return value
+
+
 def rig_from_config(config: Mapping | str | Path) -> Rig:
     """A rig from a Hydra config (mapping or DictConfig with ``_target_``), a preset name
     (``"humaneva"``, ``"mpi08"``, ``"ring4_small"``: :mod:`mocap.presets`), or the
@@ -145,10 +156,7 @@ def rig_from_config(config: Mapping | str | Path) -> Rig:
                 if isinstance(data, Mapping) and ("_target_" in data or "calibration" in data):
                     return rig_from_config(data)
         return load_calibration(path)
-    if type(config).__module__.startswith("omegaconf"):        # a DictConfig from an entry point
-        from omegaconf import OmegaConf
-
-        config = OmegaConf.to_container(config, resolve=True)
+    config = _plain(config)        # a mapping of the command line's configs (mocap_cli) to plain values
     if "calibration" in config and "_target_" not in config:
         return load_calibration(str(config["calibration"]), image_sizes=config.get("image_sizes"))
     rig = presets.build(config)

@@ -1,4 +1,4 @@
-"""Sequences from configuration (``conf/data/*.yaml``): synthetic in memory, or a folder."""
+"""Sequences from configuration (``mocap_cli/conf/data/*.yaml``): synthetic in memory, or a folder."""
 
 from __future__ import annotations
 
@@ -25,29 +25,17 @@ def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, 
                           **options)
 
 
-REPO = Path(__file__).resolve().parents[2]
-
-
-def resolve_data_path(path: str | Path) -> Path:
-    """``path`` as given when it exists (absolute, or relative to the working directory),
-    else relative to the repository root (so ``data/mismatch/walk`` works from anywhere)."""
-    p = Path(path)
-    if p.is_dir() or p.is_absolute() or not (REPO / p).is_dir():
-        return p
-    return REPO / p
-
-
 def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
                     views: Sequence_[int | str] | None = None,
                     silhouette_noise: Mapping | None = None, seed: int = 0) -> Sequence:
-    """A sequence folder written by ``experiments/make_dataset.py`` (or converted data).
+    """A sequence folder written by ``mocap make-dataset`` (or converted data).
 
-    path: the folder (relative paths: the working directory, else the repository root).
+    path: the folder (a relative path is relative to the working directory).
     views: keep only these views (indices or camera names, in this order), e.g. [0, 2, 4, 6].
     silhouette_noise: options of :class:`mocap.data.corruption.SilhouetteNoise` applied to
     every mask, deterministically for ``seed`` (the same seed gives the same masks).
     """
-    p = resolve_data_path(path)
+    p = Path(path)
     if not p.is_dir():
         raise FileNotFoundError(f"data path not found: {p}")
     seq = load_sequence(p, images=images)

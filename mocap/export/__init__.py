@@ -13,7 +13,7 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
                overwrite: bool = False, body=None, markers: str = "landmarks") -> Path:
     """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
     ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
-    (``.hydra/config.yaml``). ``markers`` (TRC, C3D): landmarks (the body's default set),
+    (its ``metrics.json``). ``markers`` (TRC, C3D): landmarks (the body's default set),
     joints, or tracker (a marker tracker's own landmarks). Written to a temporary file and
     renamed; an existing output is kept unless ``overwrite``."""
     from mocap.export.motion import load_motion
@@ -48,17 +48,17 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
 
 
 def run_body(run_dir: Path, motion=None):
-    """The body model a run used, from its ``.hydra/config.yaml``; checked against the
-    motion's model hash."""
-    from hydra.utils import instantiate
-    from omegaconf import OmegaConf
-
+    """The body model a run used, from the configuration its ``metrics.json`` stores
+    (:func:`mocap.run_folder.read.run_body`); checked against the motion's model hash."""
     from mocap.export.motion import model_hash
+    from mocap.run_folder.read import run_body as body_of
+    from mocap.run_folder.read import run_config
 
-    cfg_path = Path(run_dir) / ".hydra" / "config.yaml"
-    if not cfg_path.is_file():
-        raise FileNotFoundError(f"{cfg_path}: not found; the glTF export needs the run's body model")
-    body = instantiate(OmegaConf.load(cfg_path).body)
+    try:
+        config = run_config(run_dir)
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"{exc}; the glTF export needs the run's body model") from None
+    body = body_of(config)
     want = (motion.info.get("model_hash") if motion is not None else None)
     if want and model_hash(body) != want:
         raise ValueError(f"{run_dir}: the body model in its config (hash {model_hash(body)}) is not the "
