@@ -230,9 +230,17 @@ def frames_figure(runs: Sequence[dict]):
         ax.set_ylabel("joint error, MPJPE (mm)")
         ax.grid(True, alpha=0.3)
     counts = [len(rs) for _, rs in groups]
-    note = ("line: mean over seeds, band: min–max" if max(counts) > 1 else "one seed per line")
-    _legend(fig, axes, note + f" (n = {min(counts)}{'' if min(counts) == max(counts) else f'–{max(counts)}'})"
-            + "; oracle: its mean")
+    lo, hi = min(counts), max(counts)
+    note = (f"line: mean over seeds (n = {lo}{'' if lo == hi else f'–{hi}'}), band: min–max"
+            if hi > 1 else "one seed per line")
+    if any(o is not None for o in (_oracle([r.get("oracle", {}).get("raw_mm")]) for r in runs)):
+        note += "; oracle: its mean over the sequence"
+    # runs scored against ground truth before metrics.json kept per-frame errors: re-score them
+    # (mocap rescore) to draw them
+    missing = sum(1 for r in runs if "mpjpe_mm" in r and not r.get("per_frame_mm"))
+    if missing:
+        note += f"\n{missing} run(s) with a joint error but no per_frame_mm left out (re-score them)"
+    _legend(fig, axes, note)
     return fig
 
 

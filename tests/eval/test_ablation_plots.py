@@ -148,3 +148,30 @@ def test_short_labels_for_overrides():
     # cut values that would read the same in one dataset are left whole
     assert labels(noisy) == ["local (silhouette_noise={holes:2,dilate_px:3})",
                              "local (silhouette_noise={holes:2,dilate_px:5})"]
+
+
+def test_runs_without_per_frame_errors_are_left_out_and_counted(sweep):
+    import matplotlib.pyplot as plt
+
+    runs = [dict(r) for r in sweep.runs]
+    dropped = [r for r in runs if r["tracker"] == "local" and r["data"] == "mismatch_walk"]
+    for r in dropped:
+        del r["per_frame_mm"]
+    fig = frames_figure(runs)
+    try:
+        walk = next(ax for ax in fig.axes if ax.get_title() == "mismatch_walk")
+        assert "local" not in [ln.get_label() for ln in walk.get_lines()]
+        assert f"{len(dropped)} run(s) with a joint error but no per_frame_mm left out" in \
+            fig.legends[0].get_title().get_text()
+    finally:
+        plt.close(fig)
+
+
+def test_a_sweep_without_ground_truth_still_gets_a_figure(tmp_path):
+    import matplotlib.image as mpimg
+
+    rows = [{"tracker": "local", "data": "video", "overrides": "-", "particles_x_layers": "-",
+             "energy_terms": "-", "seeds": 1, "sec_per_frame": 0.3, "jitter_mm": 4.0}]
+    plot(rows, tmp_path / "ablation.png", runs=[{"tracker": "local", "data": "video", "sec_per_frame": 0.3}])
+    for name in ("ablation.png", "ablation_frames.png"):
+        assert mpimg.imread(tmp_path / name).ndim == 3
