@@ -51,8 +51,9 @@ class Clip:
     offsets of the hierarchy and ``translations`` (F, J, 3) the per-frame translations (the
     offsets with position channels applied). ``end_sites`` (F, E, 3) world points of the end
     sites, ``end_site_parents`` (E,) their joints. ``frame_index`` (F,) the file's frame numbers
-    kept (after ``frames=``). ``scale``: metres per file unit; ``up``: the file's up axis.
-    ``name_map``: the name of the map that recognised the skeleton ("" if none)."""
+    kept (after ``frames=``), ``times`` (F,) their times in seconds. ``scale``: metres per file
+    unit; ``up``: the file's up axis. ``name_map``: the name of the map that recognised the
+    skeleton ("" if none)."""
 
     path: Path
     names: tuple[str, ...]
@@ -70,6 +71,7 @@ class Clip:
     up: str
     name_map: str = ""
     channels: tuple[tuple[str, ...], ...] = field(default=())
+    times: np.ndarray | None = None          # (F,) seconds from the file's first frame
 
     @property
     def num_frames(self) -> int:
@@ -326,4 +328,37 @@ def read_bvh(path: str | Path, *, unit: str | None = None, up: str | None = None
                 positions=P, offsets=scale * h.offsets @ C.T, translations=trans, rotations=rots,
                 world_rotations=W, end_sites=ends, end_site_parents=ep, frame_index=sel,
                 scale=float(scale), up=up, name_map=name_map.name if name_map else "",
-                channels=tuple(h.channels))
+                channels=tuple(h.channels), times=sel * h.frame_time)
+
+
+def resample(clip: Clip, fps: float) -> Clip:
+    """The clip at another frame rate: local rotations interpolated by slerp, translations
+    linearly, then forward kinematics (bones keep their lengths). Frames at times 0, 1/fps, ...
+    up to the clip's last frame; ``frame_index`` then holds the nearest source frame.
+    Each joint's local rotation is interpolated on its own (the clip's frames should be close
+    enough in time that a joint turns < 180 degrees between them)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    if not fps > 0:
+        raise ValueError(f"fps={fps!r} for {clip.path}: must be positive")
+    t_all = clip.times if clip.times is not None else clip.frame_index / clip.fps
+    if len(t_all) < 2:
+        raise ValueError(f"{clip.path}: {len(t_all)} frame(s), cannot resample")
+    t_src = t_all - t_all[0]
+    t = np.arange(0.0, t_src[-1] + 1e-9, 1.0 / fps)
+    F, J = len(t), len(clip.names)
+    rots = np.empty((F, J, 3, 3))
+    for j in range(J):
+        rots[:, j] = Slerp(t_src, Rotation.from_matrix(clip.rotations[:, j]))(t).as_matrix()
+    trans = np.stack([np.stack([np.interp(t, t_src, clip.translations[:, j, c]) for c in range(3)], -1)
+                      for j in range(J)], axis=1)
+    P, W = forward_kinematics(clip.parents, trans, rots)
+    ep = clip.end_site_parents
+    local_ends = np.einsum("eji,ej->ei", clip.world_rotations[0, ep],
+                           clip.end_sites[0] - clip.positions[0, ep]) if len(ep) else np.zeros((0, 3))
+    ends = P[:, ep] + (W[:, ep] @ local_ends[None, :, :, None])[..., 0]
+    index = clip.frame_index[np.abs(t_src[None, :] - t[:, None]).argmin(axis=1)]
+    return Clip(path=clip.path, names=clip.names, parents=clip.parents, fps=float(fps), positions=P,
+                offsets=clip.offsets, translations=trans, rotations=rots, world_rotations=W, end_sites=ends,
+                end_site_parents=ep, frame_index=index, scale=clip.scale, up=clip.up,
+                name_map=clip.name_map, channels=clip.channels, times=t + t_all[0])

@@ -28,13 +28,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.sparse import block_diag
 
-from mocap.body.dofs import resolve_axes
-from mocap.body.kinematics import chain_transforms, posed_joints
 from mocap.body.model import BodyModel
-from mocap.body.twists import se3_log
 from mocap.eval.by_name import resolve_mapping
 
 # mocap names of the limb joints scored on their own
@@ -155,51 +150,6 @@ class OracleFit:
     metrics: dict
 
 
-class _PointFunction:
-    """Named points of the body (joints, and landmarks of the catalogue) as a function of shape
-    and pose, without skinning: landmarks ride their joint's transform, their rest points
-    linear in the shape (:func:`mocap.body.catalogue.rest_point_basis`)."""
-
-    def __init__(self, body: BodyModel, names: Sequence[str]):
-        from mocap.body.catalogue import landmarks_with, rest_point_basis
-
-        self.body = body
-        marks = landmarks_with(body, names)          # the catalogue's points among names
-        self.is_joint = np.array([n in body.joint_names for n in names])
-        self.index = np.array([body.joint_index(n) if j else marks.names.index(n)
-                               for n, j in zip(names, self.is_joint, strict=True)], int)
-        self.carrier = marks.joint
-        d = body.data
-        self.mean, self.basis = d.joints_mean.astype(np.float64), d.joints_basis.astype(np.float64)
-        self.marks_mean, self.marks_basis = rest_point_basis(body, marks)
-
-    def __call__(self, alpha: np.ndarray, chi: np.ndarray) -> np.ndarray:
-        """alpha (K,), chi (P, D) -> (P, S, 3) float64."""
-        b = self.body
-        rest = self.mean + np.einsum("k,kjc->jc", alpha, self.basis)
-        axes = resolve_axes(b.dofs, b.joint_names, rest)
-        G = chain_transforms(b.parents, b.dof_joint, axes, rest, chi[:, :6], chi[:, 6:])
-        out = np.empty((len(chi), len(self.index), 3))
-        out[:, self.is_joint] = posed_joints(G, rest)[:, self.index[self.is_joint]]
-        if not self.is_joint.all():
-            k = self.index[~self.is_joint]
-            R = self.marks_mean[k] + np.einsum("k,klc->lc", alpha, self.marks_basis[:, k])
-            Gl = G[:, self.carrier[k]]
-            out[:, ~self.is_joint] = (Gl[..., :3, :3] @ R[..., None])[..., 0] + Gl[..., :3, 3]
-        return out
-
-
-def _kabsch(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """4x4 rigid transform taking src (N, 3) onto dst (N, 3) in the least-squares sense."""
-    cs, cd = src.mean(axis=0), dst.mean(axis=0)
-    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
-    R = Vt.T @ D @ U.T
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, cd - R @ cs
-    return T
-
-
 def fit_oracle(body: BodyModel, gt_names: Sequence[str], gt_joints: np.ndarray,
                valid: np.ndarray | None = None, skeleton: str | None = None,
                shape_frames: int = 10, starts: int = 4, shape_bound: float = 3.0,
@@ -216,85 +166,33 @@ def fit_oracle(body: BodyModel, gt_names: Sequence[str], gt_joints: np.ndarray,
     3. every frame's pose with that shape, from step 1's poses.
     """
     from mocap.body.catalogue import CATALOGUE
+    from mocap.clips.fit import (
+        PointFunction,
+        fit_poses,
+        fit_shape,
+        multistart_poses,
+        pose_bounds,
+        torso_points,
+    )
 
     known = list(dict.fromkeys([*body.joint_names, *CATALOGUE]))
     m = _match(gt_names, gt_joints, valid, known, skeleton)
     if len(m.ours) < 4:
         raise ValueError(f"the oracle needs at least 4 ground-truth joints of the body, got {m.ours}")
-    F, S = m.gt.shape[:2]
-    D, K = body.num_dofs, body.num_shape
-    fn = _PointFunction(body, m.ours)
+    F = m.gt.shape[0]
+    fn = PointFunction(body, m.ours)
     w = m.valid.astype(np.float64)[..., None]
     target = np.where(m.valid[..., None], m.gt, 0.0)
-    lo_d = np.where(np.isfinite(body.limits[:, 0]), body.limits[:, 0], -np.inf)
-    hi_d = np.where(np.isfinite(body.limits[:, 1]), body.limits[:, 1], np.inf)
-    torso = [k for k, n in enumerate(m.ours) if n in ("pelvis", "mid_hip", "l_hip", "r_hip", "thorax",
-                                                      "spine", "neck", "neck_base", "l_shoulder",
-                                                      "r_shoulder")]
-
-    def root_start(alpha: np.ndarray, angles: np.ndarray, frames: np.ndarray) -> np.ndarray:
-        chi = np.zeros((len(frames), D))
-        chi[:, 6:] = angles
-        posed = fn(alpha, chi)
-        for i, f in enumerate(frames):
-            use = [k for k in (torso if len(torso) >= 3 else range(S)) if m.valid[f, k]]
-            if len(use) >= 3:
-                chi[i, :6] = se3_log(_kabsch(posed[i, use], m.gt[f, use]))
-        return chi
-
-    lo_f, hi_f = np.tile(lo_d, F), np.tile(hi_d, F)
-    per_frame_blocks = block_diag([np.ones((S * 3, D))] * F).tocsr()   # frames are independent
-
-    def fit_poses(alpha: np.ndarray, chi0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x0 = np.clip(chi0.ravel(), lo_f + 1e-9, hi_f - 1e-9)
-        r = least_squares(lambda x: ((fn(alpha, x.reshape(F, D)) - target) * w).ravel(), x0,
-                          bounds=(lo_f, hi_f), jac_sparsity=per_frame_blocks, method="trf", max_nfev=100)
-        chi = r.x.reshape(F, D)
-        cost = (((fn(alpha, chi) - target) * w) ** 2).sum(axis=(1, 2))
-        return chi, cost
-
+    lo_d, hi_d = pose_bounds(body)
     # 1. poses with the mean shape, several starts per frame
     rng = np.random.default_rng(seed)
-    alpha = np.zeros(K)
-    frames = np.arange(F)
-    lo_a, hi_a = np.clip(lo_d[6:], -np.pi, np.pi), np.clip(hi_d[6:], -np.pi, np.pi)
-    best, best_cost = None, np.full(F, np.inf)
-    for s in range(starts):
-        angles = np.zeros(D - 6) if s == 0 else rng.uniform(lo_a, hi_a, (F, D - 6)) * 0.5
-        chi, cost = fit_poses(alpha, root_start(alpha, angles, frames))
-        better = cost < best_cost
-        best = chi if best is None else np.where(better[:, None], chi, best)
-        best_cost = np.where(better, cost, best_cost)
+    alpha = np.zeros(body.num_shape)
+    best = multistart_poses(fn, alpha, target, w, m.gt, m.valid, lo_d, hi_d, torso_points(m.ours),
+                            starts, rng)
     # 2. shape and poses jointly on a few frames
     sel = np.unique(np.linspace(0, F - 1, min(shape_frames, F)).round().astype(int))
-    n = len(sel)
-
-    def joint_points(x):
-        return fn(x[n * D:], x[:n * D].reshape(n, D))
-
-    def joint_residual(x):
-        return ((joint_points(x) - target[sel]) * w[sel]).ravel()
-
-    def joint_jacobian(x, h=1e-6):
-        base = joint_points(x)
-        Jp = np.zeros((n, S * 3, n, D))
-        for d in range(D):
-            y = x.copy()
-            y[d:n * D:D] += h
-            Jp[np.arange(n), :, np.arange(n), d] = ((joint_points(y) - base) * w[sel] / h).reshape(n, S * 3)
-        Js = np.zeros((n * S * 3, K))
-        for k in range(K):
-            y = x.copy()
-            y[n * D + k] += h
-            Js[:, k] = ((joint_points(y) - base) * w[sel] / h).ravel()
-        return np.hstack([Jp.reshape(n * S * 3, n * D), Js])
-
-    lo = np.r_[np.tile(lo_d, n), np.full(K, -shape_bound)]
-    hi = np.r_[np.tile(hi_d, n), np.full(K, shape_bound)]
-    x0 = np.clip(np.r_[best[sel].ravel(), alpha], lo + 1e-9, hi - 1e-9)
-    alpha = least_squares(joint_residual, x0, jac=joint_jacobian, bounds=(lo, hi), method="trf",
-                          tr_solver="exact", max_nfev=100).x[n * D:]
+    alpha, _ = fit_shape(fn, target[sel], w[sel], best[sel], lo_d, hi_d, shape_bound)
     # 3. every pose with that shape
-    chi, _ = fit_poses(alpha, best)
+    chi, _ = fit_poses(fn, alpha, best, target, w, lo_d, hi_d)
     est = fn(alpha, chi)
     return OracleFit(alpha=alpha, chi=chi, metrics=_scores(est, m))
