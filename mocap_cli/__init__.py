@@ -4,7 +4,34 @@ Only this package imports Hydra; :mod:`mocap` (the library) never does. The conf
 package data in ``mocap_cli/conf`` (:data:`CONF_DIR`).
 """
 
+import os
 from pathlib import Path
+
+from omegaconf import OmegaConf
 
 #: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...)
 CONF_DIR = Path(__file__).resolve().parent / "conf"
+
+
+def source_checkout() -> Path | None:
+    """The git checkout the running ``mocap`` comes from (a run's metadata records its
+    revision); None for an installed wheel."""
+    import mocap
+
+    root = Path(mocap.__file__).resolve().parent.parent
+    return root if (root / ".git").exists() else None
+
+
+def data_dir() -> str:
+    """The folder of the bundled sequences (``data/`` of a checkout: the model-mismatch
+    benchmark): ``$MOCAP_DATA`` when set, else the ``data/`` folder beside this package when
+    it runs from a checkout, else ``data`` (relative to the working directory)."""
+    if os.environ.get("MOCAP_DATA"):
+        return os.environ["MOCAP_DATA"]
+    beside = CONF_DIR.parent.parent / "data"
+    return str(beside) if (beside / "mismatch").is_dir() else "data"
+
+
+# ${mocap_data:} in conf/data/*.yaml: registered wherever mocap_cli is imported (also in the
+# workers of a --multirun, which import the task function's module)
+OmegaConf.register_new_resolver("mocap_data", data_dir, replace=True)

@@ -1,7 +1,8 @@
-"""Generate a synthetic multi-view sequence with exact ground truth and write it as a folder.
+"""``mocap make-dataset``: generate a synthetic multi-view sequence with exact ground truth and
+write it as a folder.
 
-    python experiments/make_dataset.py motion=walk cameras=mpi08 frames=100
-    python experiments/make_dataset.py motion=box cameras=humaneva images=true detections.enabled=true
+    mocap make-dataset motion=walk cameras=mpi08 frames=100
+    mocap make-dataset motion=box cameras=humaneva images=true detections.enabled=true
 
 The folder layout is documented in mocap/data/sequence_io.py. The sequence is written to a
 temporary folder and moved into place only when complete.
@@ -11,20 +12,18 @@ from __future__ import annotations
 
 import time
 
-import hydra
-from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mocap.data.generate import make_synthetic
 from mocap.data.sequence_io import write_sequence
 from mocap.viz.contact_sheet import contact_sheet, save_png
+from mocap_cli.hydra_edge import build, run_command
 
 
-@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="make_dataset")
-def main(cfg: DictConfig) -> None:
-    body = instantiate(cfg.body)
-    rig = instantiate(cfg.cameras)
+def task(cfg: DictConfig) -> None:
+    body = build(cfg.body)
+    rig = build(cfg.cameras)
     t0 = time.perf_counter()
     with tqdm(total=cfg.frames, desc=f"rendering {cfg.name}", unit="frame") as bar:
         seq = make_synthetic(
@@ -42,5 +41,6 @@ def main(cfg: DictConfig) -> None:
           f"(render {t1 - t0:.1f} s, write {t2 - t1:.1f} s); contact sheet {sheet}")
 
 
-if __name__ == "__main__":
-    main()
+def main(argv: list[str] | None = None) -> int:
+    """Run ``mocap make-dataset`` with Hydra overrides ``argv``."""
+    return run_command(task, "make_dataset", "mocap make-dataset", argv)

@@ -1,7 +1,7 @@
-"""Export a run's motion (its motion.npz) to BVH, TRC, glTF (GLB) or C3D.
+"""``mocap export``: export a run's motion (its motion.npz) to BVH, TRC, glTF (GLB) or C3D.
 
-    python experiments/export.py outputs/track/<run> --format bvh
-    python experiments/export.py outputs/track/<run> --format gltf --out walk.glb --overwrite
+    mocap export outputs/track/<run> --format bvh
+    mocap export outputs/track/<run> --format gltf --out walk.glb --overwrite
 
 Default output: <run dir>/motion.<bvh|trc|glb|c3d>. Axes and units: mocap/export/axes.py.
 """
@@ -9,16 +9,15 @@ Default output: <run dir>/motion.<bvh|trc|glb|c3d>. Axes and units: mocap/export
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 from mocap.export import FORMATS, export_run
-from mocap.export.motion import MotionFileError
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="mocap export", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("run_dir", type=Path)
     p.add_argument("--format", required=True, help=f"one of: {', '.join(FORMATS)}")
     p.add_argument("--out", type=Path, default=None, help="output file (default: in the run directory)")
@@ -27,14 +26,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="TRC/C3D points: the body's landmarks, its joints, or a marker tracker's own")
     args = p.parse_args(argv)
     t = time.perf_counter()
-    try:
-        out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers)
-    except (ValueError, FileNotFoundError, FileExistsError, MotionFileError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers)
     print(f"wrote {out} ({time.perf_counter() - t:.2f} s)")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

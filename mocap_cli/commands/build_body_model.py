@@ -1,13 +1,13 @@
-"""Build the PCA body model from a database of registered bodies.
+"""``mocap build-body-model``: build the PCA body model from a database of registered bodies.
 
     # the shipped model: a few hundred adult bodies sampled from anny (build extra needed:
     # bash scripts/install_build_deps.sh)
-    .venv-build/bin/python experiments/build_body_model.py --anny 600
+    .venv-build/bin/python -m mocap_cli build-body-model --anny 600
 
     # your own database: a folder of registered rest-pose meshes of one topology, in the
     # body frame (metres, z up, front -y, A-pose); skinning and joints are transferred
     # from the shipped model
-    python experiments/build_body_model.py --meshes path/to/folder --out my_model.npz
+    mocap build-body-model --meshes path/to/folder --out my_model.npz
 
 Writes the model atomically and prints the build report (held-out errors).
 """
@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
@@ -26,7 +25,8 @@ from mocap.body.model_file import default_model_path, load_body_model_data, save
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="mocap build-body-model", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--anny", type=int, metavar="N", help="sample N adult bodies from anny")
     src.add_argument("--meshes", type=Path, help="folder of registered meshes of one topology")
@@ -55,6 +55,3 @@ def main(argv: list[str] | None = None) -> int:
     print(f"[build] wrote {args.out} ({args.out.stat().st_size / 1e6:.2f} MB)")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,4 +1,4 @@
-"""Re-score finished runs with today's evaluation, without tracking them again.
+"""``mocap rescore``: re-score finished runs with today's evaluation, without tracking them again.
 
 When the scoring changes (a ground-truth skeleton's mapping to our points, the oracle), the
 runs under ``multirun/`` keep the figures they were written with. This reads each run's
@@ -7,9 +7,9 @@ rewrites the accuracy part of its metrics.json (:func:`mocap.eval.run_metrics.ac
 speed, effort and initialisation figures are kept. The figures it replaces are kept under
 ``rescored.previous``. The recording keeps the metrics it was written with.
 
-    python experiments/rescore.py multirun/mismatch           # every run below a folder
-    python experiments/rescore.py outputs/track/<run> --dry-run
-    python experiments/ablate.py multirun/mismatch            # the tables from the new figures
+    mocap rescore multirun/mismatch           # every run below a folder
+    mocap rescore outputs/track/<run> --dry-run
+    mocap ablate multirun/mismatch            # the tables from the new figures
 """
 
 from __future__ import annotations
@@ -20,15 +20,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-from hydra.utils import instantiate
-from omegaconf import OmegaConf
-
 from mocap.eval.run_metrics import accuracy_metrics
 from mocap.export.motion import load_motion
-
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "experiments"))
-from _harness import write_json  # noqa: E402
+from mocap.run_folder import run_body, run_sequence, write_json
+from mocap_cli import source_checkout
 
 SUMMARY = ("mpjpe_mm", "frames_lost", "pcp")
 
@@ -47,10 +42,9 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
     """(old, new) accuracy figures of one run; metrics.json rewritten unless ``dry_run``."""
     metrics = json.loads((run / "metrics.json").read_text())
     if "config" not in metrics:
-        raise ValueError(f"{run}: metrics.json holds no config (not a track.py run)")
-    cfg = OmegaConf.create(metrics["config"])
-    body = instantiate(cfg.body)
-    seq = instantiate(cfg.data, _partial_=True)(body=body)
+        raise ValueError(f"{run}: metrics.json holds no config (not a mocap track run)")
+    body = run_body(metrics["config"])
+    seq = run_sequence(metrics["config"], body)
     if seq.gt is None:
         raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
     motion = load_motion(run)
@@ -71,20 +65,18 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="mocap rescore", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("targets", nargs="+", type=Path, help="run directories or folders holding them")
     p.add_argument("--dry-run", action="store_true", help="print the new figures, write nothing")
     args = p.parse_args(argv)
-    try:
-        runs = run_dirs(args.targets)
-    except FileNotFoundError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    runs = run_dirs(args.targets)
     if not runs:
-        print("error: no run directory with metrics.json and motion.npz found", file=sys.stderr)
-        return 2
-    version = subprocess.run(["git", "-C", str(REPO), "describe", "--always", "--dirty"],
-                             capture_output=True, text=True).stdout.strip() or "unknown"
+        raise FileNotFoundError("no run directory with metrics.json and motion.npz found")
+    source = source_checkout()
+    version = "unknown" if source is None else subprocess.run(
+        ["git", "-C", str(source), "describe", "--always", "--dirty"],
+        capture_output=True, text=True).stdout.strip() or "unknown"
     failed = 0
     for i, run in enumerate(runs, 1):
         try:
@@ -101,6 +93,3 @@ def main(argv: list[str] | None = None) -> int:
         print(line, flush=True)
     return 1 if failed else 0
 
-
-if __name__ == "__main__":
-    raise SystemExit(main())

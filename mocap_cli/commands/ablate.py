@@ -1,6 +1,6 @@
-"""Collect a sweep's metrics.json files into ablation.md, ablation.csv and ablation.png.
+"""``mocap ablate``: collect a sweep's metrics.json files into ablation.md, ablation.csv and ablation.png.
 
-    python experiments/ablate.py multirun/<sweep dir> [--out DIR] [--title TEXT]
+    mocap ablate multirun/<sweep dir> [--out DIR] [--title TEXT]
 
 Groups runs by tracker, data, the overrides that vary in the sweep (a parameter sweep makes
 one row per value), particles x layers and energy terms; reports the joint error over seeds
@@ -13,24 +13,20 @@ are missing or have a NaN joint error (never averaged in).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from mocap.eval.ablation import collect, markdown, plot, table_rows, write_csv
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="mocap ablate", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("sweep_dir", type=Path)
     p.add_argument("--out", type=Path, default=None, help="output folder (default: the sweep dir)")
     p.add_argument("--title", default="Ablation")
     p.add_argument("--strict", action="store_true", help="exit 1 when any run failed or is missing")
     args = p.parse_args(argv)
-    try:
-        got = collect(args.sweep_dir)
-    except FileNotFoundError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    got = collect(args.sweep_dir)
     out = args.out or args.sweep_dir
     out.mkdir(parents=True, exist_ok=True)
     rows = table_rows(got.runs)
@@ -45,6 +41,3 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,9 +1,9 @@
-"""Review a run: open its recording in the Rerun viewer where a display exists, otherwise
+"""``mocap replay``: review a run: open its recording in the Rerun viewer where a display exists, otherwise
 print a headless summary (frames, entities, final metrics) read from the file itself, and the
 run's motion.npz (frames, APF calls, misaligned limbs) when the run directory has one.
 
-    python experiments/replay.py outputs/track/<run>            # a run directory
-    python experiments/replay.py path/to/recording.rrd [--summary]
+    mocap replay outputs/track/<run>            # a run directory
+    mocap replay path/to/recording.rrd [--summary]
 """
 
 from __future__ import annotations
@@ -30,15 +30,12 @@ def find_recording(target: Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="mocap replay", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("target", type=Path, help="run directory or .rrd file")
     p.add_argument("--summary", action="store_true", help="print the summary, never open a viewer")
     args = p.parse_args(argv)
-    try:
-        rrd = find_recording(args.target)
-    except FileNotFoundError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    rrd = find_recording(args.target)
     has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     viewer = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
     if has_display and not args.summary and Path(viewer).exists():
@@ -55,6 +52,3 @@ def main(argv: list[str] | None = None) -> int:
             print(f"motion.npz unreadable: {exc}")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,13 +1,12 @@
-"""Show the body model: the mean body, +-3 sigma along the first three shape components, and
-a few poses of the paper's 22 DOFs. Writes a Rerun recording and a PNG contact sheet.
+"""``mocap show-body``: show the body model: the mean body, +-3 sigma along the first three
+shape components, and a few poses of the paper's 22 DOFs. Writes a Rerun recording and a PNG contact sheet.
 
-    python experiments/show_body.py [--out outputs/body] [--png docs/body_model.png]
+    mocap show-body [--out outputs/body] [--png docs/body_model.png]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import matplotlib
@@ -20,8 +19,6 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 from mocap import presets  # noqa: E402
 from mocap.body import BodyModel, load_body_model  # noqa: E402
 from mocap.recording.body_gallery import write_body_gallery  # noqa: E402
-
-REPO = Path(__file__).resolve().parents[1]
 
 
 def gallery(model: BodyModel) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -93,8 +90,9 @@ def contact_sheet(model: BodyModel, shapes, poses, labels, path: Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__)
-    p.add_argument("--out", type=Path, default=REPO / "outputs" / "body")
+    p = argparse.ArgumentParser(prog="mocap show-body", description=__doc__)
+    p.add_argument("--out", type=Path, default=Path("outputs") / "body",
+                   help="output folder (relative: the working directory)")
     p.add_argument("--png", type=Path, default=None, help="also write the contact sheet here")
     p.add_argument("--body", default="paper22", help="body preset (mocap/presets/body)")
     args = p.parse_args(argv)
@@ -106,6 +104,3 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {rrd} ({rrd.stat().st_size / 1e6:.1f} MB) and {png}")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

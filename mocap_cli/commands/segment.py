@@ -1,31 +1,30 @@
-"""Segment a recording into silhouettes and write a sequence folder with the masks.
+"""``mocap segment``: segment a recording into silhouettes and write a sequence folder with the
+masks.
 
-    python experiments/segment.py                                  # Pose2Sim demo (conf/segment.yaml)
-    python experiments/segment.py segmentation.method=knn data.stop=100 data.step=1
-    python experiments/segment.py background_clip=/path/to/empty_scene_videos segmentation.background=median
+    mocap segment                                  # Pose2Sim demo (mocap_cli/conf/segment.yaml)
+    mocap segment segmentation.method=knn data.stop=100 data.step=1
+    mocap segment background_clip=/path/to/empty_scene_videos segmentation.background=median
 
 The folder (mocap/data/sequence_io.py layout) holds masks, the scaled calibration, the
 keypoints and, in sequence.json's meta, the source frames and the segmentation's settings and
 speed. Track it with its video images:
-    python experiments/track.py data=pose2sim_demo_video data.masks=<folder> tracker=hybrid init.mode=tracker
+    mocap track data=pose2sim_demo_video data.masks=<folder> tracker=hybrid init.mode=tracker
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
 
-import hydra
-from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from mocap.data.segmentation import segment_sequence
 from mocap.data.sequence_io import write_sequence
 from mocap.data.video_sequence import load_background_clip
+from mocap_cli.hydra_edge import build, run_command
 
 
-@hydra.main(version_base="1.3", config_path="../mocap_cli/conf", config_name="segment")
-def main(cfg: DictConfig) -> None:
-    seq = instantiate(cfg.data, _partial_=True)(body=None)
+def task(cfg: DictConfig) -> None:
+    seq = build(cfg.data, body=None)
     clip = load_background_clip(cfg.background_clip, seq) if cfg.background_clip else None
     result = segment_sequence(seq, background_clip=clip, **OmegaConf.to_container(cfg.segmentation))
     out = replace(seq, images=None, masks=result.masks, meta={**seq.meta, "segmentation": result.info})
@@ -37,5 +36,6 @@ def main(cfg: DictConfig) -> None:
           f"{1000 * info['seconds_per_frame_per_view']:.0f} ms per frame per view -> {folder}")
 
 
-if __name__ == "__main__":
-    main()
+def main(argv: list[str] | None = None) -> int:
+    """Run ``mocap segment`` with Hydra overrides ``argv``."""
+    return run_command(task, "segment", "mocap segment", argv)

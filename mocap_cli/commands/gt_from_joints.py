@@ -1,6 +1,7 @@
-"""Add ground truth to a sequence folder from a folder of named 3D joints (CSV or NPZ).
+"""``mocap gt-from-joints``: add ground truth to a sequence folder from a folder of named 3D
+joints (CSV or NPZ).
 
-    python experiments/gt_from_joints.py JOINTS_DIR SEQUENCE_DIR [--skeleton shelf14] [--scale 0.001]
+    mocap gt-from-joints JOINTS_DIR SEQUENCE_DIR [--skeleton shelf14] [--scale 0.001]
 
 Layouts: mocap/data/named_joints.py. Skeletons and their mappings: mocap/eval/by_name.py
 (humaneva15, shelf14, coco17, body25; none: the body's own joint names).
@@ -9,7 +10,6 @@ Layouts: mocap/data/named_joints.py. Skeletons and their mappings: mocap/eval/by
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from mocap.data.named_joints import add_ground_truth, read_named_joints
@@ -17,23 +17,17 @@ from mocap.eval.by_name import SKELETONS
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(prog="mocap gt-from-joints", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("joints_dir", type=Path)
     p.add_argument("sequence_dir", type=Path)
     p.add_argument("--skeleton", default="", choices=["", *SKELETONS])
     p.add_argument("--scale", type=float, default=1.0, help="to metres (0.001 for mm)")
     p.add_argument("--overwrite", action="store_true")
     args = p.parse_args(argv)
-    try:
-        names, joints, valid = read_named_joints(args.joints_dir, args.scale)
-        out = add_ground_truth(args.sequence_dir, names, joints, valid, args.skeleton, args.overwrite)
-    except (ValueError, FileNotFoundError, FileExistsError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    names, joints, valid = read_named_joints(args.joints_dir, args.scale)
+    out = add_ground_truth(args.sequence_dir, names, joints, valid, args.skeleton, args.overwrite)
     print(f"wrote {out}: {joints.shape[0]} frames, {len(names)} joints, "
           f"{int((~valid).sum())} missing entries")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,71 @@
+"""Which exceptions are the user's (a bad option, key, value or file: one line of message)
+and which are the program's (a traceback)."""
+
+from __future__ import annotations
+
+from hydra.errors import HydraException, InstantiationException, MissingConfigException
+from omegaconf.errors import OmegaConfBaseException
+
+#: raised by validation before work starts: a setting's value, a missing or existing file, a key
+USER_ERRORS = (ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, KeyError,
+               OmegaConfBaseException)
+
+
+def _one_line(text: str) -> str:
+    lines = [line.strip() for line in str(text).splitlines() if line.strip()]
+    return " ".join(lines)
+
+
+def _binding_error(exc: BaseException) -> bool:
+    """A TypeError from calling a config's _target_ with arguments it does not take (a
+    missing or unknown key): raised before the target's body runs, in Hydra's frame."""
+    if not isinstance(exc, TypeError) or not (
+            "unexpected keyword argument" in str(exc) or "required keyword-only argument" in str(exc)
+            or "required positional argument" in str(exc)):
+        return False
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and "hydra" in tb.tb_frame.f_code.co_filename
+
+
+def _is_user_error(exc: BaseException) -> bool:
+    if isinstance(exc, InstantiationException):
+        cause = exc.__cause__
+        return cause is not None and (_is_user_error(cause) or (
+            isinstance(cause, TypeError) and "unexpected keyword argument" in str(cause)))
+    return isinstance(exc, (HydraException, *USER_ERRORS)) or _binding_error(exc)
+
+
+def _missing_config(message: str) -> str:
+    """Hydra's "Could not find" message without the search path, the options on one line."""
+    head, _, options = message.split("Config search path:")[0].partition("Available options in")
+    if not options:
+        return head
+    group, _, names = options.partition(":")
+    return f"{head.strip()} (available in{group}: {', '.join(names.split())})"
+
+
+def user_error_message(exc: BaseException) -> str | None:
+    """One line for a user error (None: a programming error, show the traceback).
+
+    Hydra wraps a factory's ValueError in an InstantiationException: the message is the
+    original one. A composition error (unknown key, missing config) adds its cause's first
+    line (e.g. "Key 'foo' is not in struct")."""
+    if not _is_user_error(exc):
+        return None
+    while isinstance(exc, InstantiationException) and exc.__cause__ is not None:
+        exc = exc.__cause__
+    if isinstance(exc, KeyError) and len(exc.args) == 1 and isinstance(exc.args[0], str):
+        message = exc.args[0]           # KeyError's str() quotes its message
+    else:
+        message = str(exc)
+    if isinstance(exc, MissingConfigException):
+        message = _missing_config(message)
+    cause = exc.__cause__
+    if isinstance(exc, HydraException) and isinstance(cause, OmegaConfBaseException) and str(cause).strip():
+        reason = str(cause).strip().splitlines()[0].strip()
+        first, *rest = message.strip().splitlines() or [""]
+        if reason not in message:
+            message = f"{first.rstrip('.')}: {reason}" + (f" ({' '.join(rest).strip()})" if rest else "")
+    return _one_line(message) or type(exc).__name__

@@ -1,0 +1,141 @@
+"""Hydra at the command-line edge: running a Hydra command with overrides, turning its
+DictConfig into plain values and objects for :mod:`mocap`, composing a config in-process.
+
+Every Hydra command of ``mocap`` is a module-level function decorated by :func:`command`; the
+library (:mod:`mocap`) never sees a DictConfig.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
+from hydra.utils import instantiate
+from omegaconf import DictConfig, OmegaConf
+
+from mocap_cli import CONF_DIR, source_checkout
+
+VERSION_BASE = "1.3"
+
+
+def _register_schema() -> None:
+    """The tracker settings' structured configs (mocap_cli/conf_schema.py), where present."""
+    try:
+        from mocap_cli import conf_schema
+    except ImportError:
+        return
+    register = getattr(conf_schema, "register_configs", None)
+    if register is not None:
+        register()
+
+
+@contextlib.contextmanager
+def _argv(argv: list[str]) -> Iterator[None]:
+    old_argv, old_env = sys.argv, os.environ.get("HYDRA_FULL_ERROR")
+    sys.argv = argv
+    os.environ["HYDRA_FULL_ERROR"] = "1"        # errors reach the caller (mocap_cli.main formats them)
+    try:
+        yield
+    finally:
+        sys.argv = old_argv
+        if old_env is None:
+            os.environ.pop("HYDRA_FULL_ERROR", None)
+        else:
+            os.environ["HYDRA_FULL_ERROR"] = old_env
+
+
+class _Task:
+    """A command's task function; a single run's error is kept and raised after Hydra returns
+    (Hydra would add a line of its own before it). A --multirun's job errors are Hydra's."""
+
+    def __init__(self, task: Callable[[DictConfig], object]):
+        self.task = task
+        self.__module__ = task.__module__       # Hydra names the job (and its .log) after it
+        self.__name__ = getattr(task, "__name__", "task")
+        self.failure: Exception | None = None
+
+    def __call__(self, cfg: DictConfig) -> object:
+        try:
+            return self.task(cfg)
+        except Exception as exc:
+            if HydraConfig.get().mode != RunMode.RUN:
+                raise
+            self.failure = exc
+            return None
+
+
+def run_command(task: Callable[[DictConfig], object], config_name: str, prog: str,
+                overrides: list[str] | None) -> int:
+    """Run ``task`` under ``@hydra.main`` with the config ``config_name`` of
+    :data:`mocap_cli.CONF_DIR` and the command line ``overrides`` (Hydra's own flags included:
+    ``--multirun``, ``--cfg job``, ``--help``); errors are raised, not printed."""
+    _register_schema()
+    wrapped = _Task(task)
+    main = hydra.main(version_base=VERSION_BASE, config_path=str(CONF_DIR), config_name=config_name)(wrapped)
+    with _argv([prog, *(overrides or [])]):
+        main()
+    if wrapped.failure is not None:
+        raise wrapped.failure
+    return 0
+
+
+def compose(config_name: str, overrides: list[str] | None = None,
+            return_hydra_config: bool = False) -> DictConfig:
+    """The config ``config_name`` composed with ``overrides`` in-process (no run directory)."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+
+    _register_schema()
+    with initialize_config_dir(str(CONF_DIR), version_base=VERSION_BASE):
+        return hydra_compose(config_name, overrides=list(overrides or []),
+                             return_hydra_config=return_hydra_config)
+
+
+def plain(cfg: DictConfig) -> dict:
+    """The resolved config as plain Python values (what metrics.json stores)."""
+    return OmegaConf.to_container(cfg, resolve=True)
+
+
+def output_dir() -> Path:
+    """The run directory Hydra chose for this job."""
+    return Path(HydraConfig.get().runtime.output_dir)
+
+
+def parallel_jobs() -> int:
+    """Jobs this run shares the machine with: the launcher's n_jobs in a --multirun."""
+    hc = HydraConfig.get()
+    if hc.mode != RunMode.MULTIRUN:
+        return 1
+    return int(hc.launcher.get("n_jobs", 1) or 1)
+
+
+def build(node, **kwargs):
+    """Instantiate a config node (``_target_`` + arguments); objects go in through a partial,
+    since Hydra would turn dataclass arguments into configs."""
+    return instantiate(node, _partial_=True)(**kwargs) if kwargs else instantiate(node)
+
+
+def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> dict | None:
+    """:func:`mocap.run_folder.run_tracking` for a composed tracking config (mocap_cli/conf/tracking.yaml)
+    into the Hydra run directory. check_sequence(seq): raises when the data does not suit the
+    command, before any tracking."""
+    from mocap.run_folder import run_tracking
+
+    def make_sequence(body):
+        seq = build(cfg.data, body=body)
+        if check_sequence is not None:
+            check_sequence(seq)
+        return seq
+
+    return run_tracking(
+        output_dir(), plain(cfg),
+        make_body=lambda: build(cfg.body),
+        make_sequence=make_sequence,
+        make_tracker=lambda **objects: build(cfg.tracker, **objects),
+        parallel_jobs=parallel_jobs(), source=source_checkout(), wrap=wrap, extra=extra)
