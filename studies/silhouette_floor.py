@@ -1,4 +1,7 @@
-"""How close silhouettes alone can bring our body to the ground truth: the silhouette floor.
+"""Question: how close can silhouettes alone bring our body to the ground truth under model
+mismatch (starting from the oracle), i.e. what error should no silhouette tracker beat?
+
+How close silhouettes alone can bring our body to the ground truth: the silhouette floor.
 
 The oracle (:func:`mocap.eval.mismatch.fit_oracle`) fits our body to the true joints: it is
 the floor of a tracker that saw the joints. A silhouette tracker sees outlines, and under
@@ -13,8 +16,8 @@ and scores each stage. Where E_S falls while the joint error rises, the silhouet
 determine the joints to the oracle's accuracy, and no silhouette tracker should be expected
 to reach it.
 
-    python experiments/silhouette_floor.py data=mismatch_walk      # one sequence
-    python experiments/silhouette_floor.py --all                   # the three mismatch sequences
+    python studies/silhouette_floor.py data=mismatch_walk      # one sequence
+    python studies/silhouette_floor.py --all                   # the three mismatch sequences
 Writes outputs/silhouette_floor/<sequence>.json.
 """
 
@@ -26,21 +29,17 @@ import time
 from pathlib import Path
 
 import numpy as np
-from hydra import compose, initialize_config_dir
-from hydra.utils import instantiate
 
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.eval.mismatch import fit_oracle
 from mocap.eval.run_metrics import accuracy_metrics
 from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
+from mocap.run_folder import write_json
 from mocap.threads import thread_budget
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.shape_search import ShapeRefinement, refine_shape, shifted
-
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "experiments"))
-from _harness import write_json  # noqa: E402
+from mocap_cli.hydra_edge import build, compose
 
 SEQUENCES = ("mismatch_walk", "mismatch_box", "mismatch_gesture")
 
@@ -53,10 +52,9 @@ def mean_energy(body, rig, alpha, chis, masks, scale) -> float:
 
 
 def floor(data: str, rounds: int, keyframes: int, frames: int | None, seed: int) -> dict:
-    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
-        cfg = compose("track", overrides=[f"data={data}"])
-    body = instantiate(cfg.body)
-    seq = instantiate(cfg.data, _partial_=True)(body=body)
+    cfg = compose("track", overrides=[f"data={data}"])
+    body = build(cfg.body)
+    seq = build(cfg.data, body=body)
     gt, rig = seq.gt, seq.rig
     if gt is None or seq.masks is None:
         raise ValueError(f"{data}: the silhouette floor needs masks and ground-truth joints")
@@ -114,15 +112,15 @@ def floor(data: str, rounds: int, keyframes: int, frames: int | None, seed: int)
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", nargs="*", help="data=<name> of conf/data (default with --all: the three "
-                   "mismatch sequences)")
+    p.add_argument("data", nargs="*", help="data=<name> of mocap_cli/conf/data (default with --all: "
+                   "the three mismatch sequences)")
     p.add_argument("--all", action="store_true", help="the three model-mismatch sequences")
     p.add_argument("--rounds", type=int, default=2)
     p.add_argument("--keyframes", type=int, default=10)
     p.add_argument("--frames", type=int, default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--out", type=Path, default=REPO / "outputs" / "silhouette_floor")
+    p.add_argument("--out", type=Path, default=Path("outputs") / "silhouette_floor")
     args = p.parse_args(argv)
     names = [d.split("=", 1)[-1] for d in args.data] or (list(SEQUENCES) if args.all else [])
     if not names:

@@ -1,4 +1,7 @@
-"""The colour marker detector of Canton-Ferrer et al. 2010 (Sec. 4.2) on rendered images.
+"""Question: how many of the rendered colour markers does the chrominance detector find, how
+many false positives does it add, and how far off are they, for several thresholds?
+
+The colour marker detector of Canton-Ferrer et al. 2010 (Sec. 4.2) on rendered images.
 
 Renders a synthetic sequence with green marker spheres (pyrender; headless via EGL), learns
 the marker chrominance from the visible markers of frame 0 (the "one labelled frame"),
@@ -6,7 +9,7 @@ detects markers in the other frames by a Mahalanobis threshold, and reports dete
 false-positive rate and pixel error against the true projections of the visible markers,
 for several thresholds. Writes detector.json, detector.md and detections.png into --out.
 
-    PYOPENGL_PLATFORM=egl python experiments/marker_detector.py --frames 12 --out outputs/marker_detector
+    PYOPENGL_PLATFORM=egl python studies/marker_detector.py --frames 12 --out outputs/marker_detector
 """
 
 from __future__ import annotations
@@ -27,8 +30,6 @@ from mocap.data.generate import make_synthetic
 from mocap.data.marker_detector import ChromaModel, detect_markers, match_detections
 from mocap.data.synthetic import marker_visibility
 
-REPO = Path(__file__).resolve().parents[1]
-
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -38,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--cameras", default="humaneva")
     p.add_argument("--thresholds", type=float, nargs="+", default=[2.0, 3.0, 4.0, 6.0])
     p.add_argument("--radius", type=float, default=5.0, help="matching radius, px")
-    p.add_argument("--out", type=Path, default=REPO / "outputs" / "marker_detector")
+    p.add_argument("--out", type=Path, default=Path("outputs") / "marker_detector")
     args = p.parse_args(argv)
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
     dofs = presets.read("body", "paper22")["dofs"]

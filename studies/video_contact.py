@@ -1,8 +1,11 @@
-"""Contact sheet of a video_check run: per view, the video frame, its mask, and the video with
+"""Question: where, in the images, does a video-check run's body miss the subject (its worst
+frame by reprojection error)?
+
+Contact sheet of a ``mocap video-check`` run: per view, the video frame, its mask, and the video with
 the tracked body projected on it (filled outline) plus the confident keypoints (green) and the
 body's landmarks (red; with the keypoint-to-joint offsets of the run's metrics.json).
 
-    python experiments/video_contact.py multirun/video_check_demo_0_40_2/hybrid [frame ...] [--out x.png]
+    python studies/video_contact.py multirun/video_check_demo_0_40_2/hybrid [frame ...] [--out x.png]
 
 Frames are indices into the run's selection (default: the worst frame by the offset-corrected
 reprojection error, and frame 0 when that is another one).
@@ -20,11 +23,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from hydra.utils import instantiate  # noqa: E402
 
 from mocap.body.catalogue import make_landmark_set  # noqa: E402
 from mocap.cameras import project  # noqa: E402
+from mocap.export.motion import load_motion  # noqa: E402
 from mocap.render import rasterize_silhouettes  # noqa: E402
+from mocap.run_folder import run_body, run_sequence  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> Path:
@@ -36,12 +40,12 @@ def main(argv: list[str] | None = None) -> Path:
     args = ap.parse_args(argv)
     m = json.loads((args.run / "metrics.json").read_text())
     cfg = m["config"]
-    body = instantiate(cfg["body"])
+    body = run_body(cfg)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        seq = instantiate(cfg["data"], _partial_=True)(body=body)
-    est = np.load(args.run / "estimates.npz")
-    chis, shaped = est["chi"], body.shaped(est["alpha"])
+        seq = run_sequence(cfg, body)
+    motion = load_motion(args.run / "motion.npz")
+    chis, shaped = motion.chi, body.shaped(motion.alpha[-1])
     per_frame = m["reprojection"]["fitted_per_frame_px"]
     frames = args.frames or sorted({0, int(np.nanargmax(per_frame))})
     det = seq.detections

@@ -1,7 +1,10 @@
-"""Several people: identity switches and per-person error of the multi-person marker tracker
+"""Question: with several people in view, does the multi-person marker tracker keep
+identities apart and track each person as well as it tracks them alone?
+
+Several people: identity switches and per-person error of the multi-person marker tracker
 (mocap/trackers/markers/people.py) against tracking each person alone.
 
-    python experiments/marker_people.py --seeds 0 1 2 --frames 50 --out marker_people.json
+    python studies/marker_people.py --seeds 0 1 2 --frames 50 --out marker_people.json
 
 Scene (:func:`mocap.data.crowd.crossing_scene`): three people with different shapes, two
 walking towards each other on lines ``--gap`` m apart and crossing half way, one gesturing
@@ -20,24 +23,22 @@ import json
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from mocap.body import load_body
 from mocap.cameras import rig_from_config
 from mocap.data.crowd import crossing_scene, crowd_detections
 from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
-from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.markers.people import PeopleTracker
+from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of
 
-REPO = Path(__file__).resolve().parents[1]
 LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
 
 
-def run(body, seq, truth, seed, cfg):
+def run(body, seq, truth, seed):
     rngs = iter(np.random.default_rng(seed).spawn(20))
-    people = PeopleTracker(lambda: make_marker_tracker(body=body, rig=seq.rig, rng=next(rngs), **cfg))
+    people = PeopleTracker(lambda: make_tracker("marker_apf", body=body, rig=seq.rig, rng=next(rngs)))
     tracks = people.start(frame_of(seq, 0))
     for f in range(1, seq.num_frames):
         people.step(frame_of(seq, f))
@@ -65,19 +66,17 @@ def main() -> None:
     args = p.parse_args()
     body = load_body("paper22")
     rig = rig_from_config("humaneva")
-    cfg = yaml.safe_load((REPO / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
-    cfg.pop("_target_")
     rows = []
     for seed in args.seeds:
         chis, alphas = crossing_scene(body, args.frames, people=3, gap=args.gap, seed=seed)
         det, truth = crowd_detections(body, rig, chis, alphas, LABELS, noise_px=1.0, seed=seed)
-        together = run(body, Sequence(name="crowd", rig=rig, fps=25, detections=det), truth, seed, cfg)
+        together = run(body, Sequence(name="crowd", rig=rig, fps=25, detections=det), truth, seed)
         for tid, r in together.items():
             n = r["person"]
             alone_det, _ = crowd_detections(body, rig, chis[n:n + 1], alphas[n:n + 1], LABELS, noise_px=1.0,
                                             seed=seed)
             alone = run(body, Sequence(name="alone", rig=rig, fps=25, detections=alone_det), truth[n:n + 1],
-                        seed, cfg)
+                        seed)
             rows.append({"seed": seed, "track": tid, "person": n, "switches": r["switches"],
                          "error_mm": r["error_mm"], "alone_error_mm": alone[0]["error_mm"],
                          "ratio": r["error_mm"] / alone[0]["error_mm"]})

@@ -1,6 +1,9 @@
-"""marker_apf against robust per-frame triangulation of the same keypoint detections.
+"""Question: does the marker tracker (with refinement, confidences, learned offsets) beat
+robust per-frame triangulation of the same keypoint detections, and by how much?
 
-    python experiments/marker_vs_triangulation.py --motions walk box gestures --seeds 0 1 2 \
+marker_apf against robust per-frame triangulation of the same keypoint detections.
+
+    python studies/marker_vs_triangulation.py --motions walk box gestures --seeds 0 1 2 \
         --variants base refine --out marker_vs_triangulation.json
 
 Synthetic scenes (paper22 body, a shape drawn per seed, the HumanEva-like 4-view rig): the
@@ -16,8 +19,9 @@ without offsets, in mm, mean over keypoints and frames 1..F-1:
 * ``triangulation``: :func:`mocap.trackers.markers.startup.triangulate_candidates` per frame
   (every pair of candidates a hypothesis, most inliers within the gate wins, re-triangulated
   from its inliers); landmarks it cannot triangulate are left out (its coverage is printed);
-* ``marker_apf`` variants: the tracker (conf/tracker/marker_apf.yaml) started by its own
-  start-up on frame 0; ``refine``: with 3 Gauss-Newton steps (mocap/trackers/markers/refine.py);
+* ``marker_apf`` variants: the tracker (the ``marker_apf`` preset, :mod:`mocap.trackers.presets`)
+  started by its own start-up on frame 0; ``refine``: with 3 Gauss-Newton steps
+  (mocap/trackers/markers/refine.py);
   ``refine_noconf``: the same without confidence weights; ``refine_offsets``: plus keypoint
   offsets learned over 10 frames; ``conf`` / ``refine_conf`` / ``refine_conf_offsets``: the
   same with the confidence-weighted likelihood (``use_confidence``). The tracker's error is
@@ -38,7 +42,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from mocap.body import load_body
 from mocap.body.catalogue import make_landmark_set
@@ -49,11 +52,10 @@ from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import load_sequence
 from mocap.energy.markers import arrange_detections
 from mocap.eval.by_name import SKELETONS
-from mocap.trackers.factory import make_marker_tracker
 from mocap.trackers.markers.startup import triangulate_candidates
+from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence
 
-REPO = Path(__file__).resolve().parents[1]
 LABELS = [n for n in LAYOUTS["BODY_25B"] if n is not None]
 #: what the HumanEva-style ground truth's joints are in our landmark catalogue: its thorax is
 #: the base of the neck (between the clavicles), its pelvis the midpoint of the hips
@@ -141,8 +143,6 @@ def main() -> None:
     args = p.parse_args()
     body = load_body("paper22")
     rig = rig_from_config("humaneva")
-    base_cfg = yaml.safe_load((REPO / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
-    base_cfg.pop("_target_")
     rows = []
     for motion in args.motions:
         for seed in args.seeds:
@@ -167,9 +167,9 @@ def main() -> None:
                 names = LABELS
                 seq = replace(seq, detections=det)
             for variant in args.variants:
-                cfg = {**base_cfg, **{k: ({**base_cfg.get(k, {}), **v} if isinstance(v, dict) else v)
-                                      for k, v in VARIANTS[variant].items()}}
-                trk = make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(seed), **cfg)
+                # the marker_apf preset (mocap.trackers.presets) with the variant's settings merged in
+                trk = make_tracker("marker_apf", body=body, rig=rig, rng=np.random.default_rng(seed),
+                                   **VARIANTS[variant])
                 t = time.perf_counter()
                 chi0, alpha = trk.initial_estimate(frame_of(seq, 0))
                 res = track_sequence(trk, seq, chi0, alpha)

@@ -1,8 +1,11 @@
-"""Table of video_check runs on one recording, with one set of keypoint-to-joint offsets for all.
+"""Question: which tracker fits a real recording best when every run is judged with the same
+keypoint-to-joint offsets (fitted once, on the keypoint tracker)?
 
-    python experiments/video_summary.py outputs/video_check/demo_0_40_2 [reference tracker]
+Table of ``mocap video-check`` runs on one recording, with one set of keypoint-to-joint offsets for all.
 
-Each subfolder is a run of experiments/video_check.py (metrics.json + estimates.npz) on the
+    python studies/video_summary.py outputs/video_check/demo_0_40_2 [reference tracker]
+
+Each subfolder is a run of ``mocap video-check`` (metrics.json + motion.npz) on the
 same frames. The constant keypoint-to-landmark offsets are fitted ONCE, on the reference run
 (default ``marker_apf``: the tracker that sees the keypoints), and applied to every run, so a
 tracker's own bias is not absorbed; each run's self-fitted figure is listed as well. Writes
@@ -17,32 +20,33 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from hydra.utils import instantiate
 
 from mocap.body.catalogue import make_landmark_set
 from mocap.eval.keypoint_metrics import triangulate_detections
 from mocap.eval.video_metrics import fit_offsets, lost_frames, offset_reprojection
+from mocap.export.motion import load_motion
+from mocap.run_folder import run_body, run_sequence
 
 
 def main(folder: str, reference: str = "marker_apf") -> dict:
     root = Path(folder)
-    runs = {p.name: p for p in sorted(root.iterdir()) if (p / "estimates.npz").is_file()}
+    runs = {p.name: p for p in sorted(root.iterdir())
+            if (p / "motion.npz").is_file() and (p / "metrics.json").is_file()}
     if reference not in runs:
         raise FileNotFoundError(f"no {reference} run in {root} (runs: {sorted(runs)})")
     cfg = json.loads((runs[reference] / "metrics.json").read_text())["config"]
-    body = instantiate(cfg["body"])
+    body = run_body(cfg)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        data = {k: v for k, v in cfg["data"].items() if k not in ("masks", "segmentation")}
-        seq = instantiate(data, _partial_=True)(body=body)
+        seq = run_sequence(cfg, body, drop=("masks", "segmentation"))
     det = seq.detections
     lms = make_landmark_set(body, "auto", det.labels)
     px_scale = 1.0 / float(seq.meta.get("scale", 1.0))
     check = cfg["check"]
 
     def landmarks(run: Path) -> np.ndarray:
-        est = np.load(run / "estimates.npz")
-        return lms.positions(body.shaped(est["alpha"]), est["chi"]).astype(np.float64)
+        motion = load_motion(run / "motion.npz")        # the shape of the last frame for all
+        return lms.positions(body.shaped(motion.alpha[-1]), motion.chi).astype(np.float64)
 
     ref_X = landmarks(runs[reference])
     offsets = fit_offsets(seq.rig, ref_X, lms.names, det, check["min_confidence"])
