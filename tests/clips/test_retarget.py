@@ -63,7 +63,7 @@ def test_own_motion_comes_back(body, action):
     joints_got = body.shaped(got_alpha).joints(got_chi).astype(np.float64)
     err = 1e3 * np.linalg.norm(joints_got - joints_true, axis=-1).max(axis=0)
     pinned = [body.joint_names.index(n) for n in BANDAI_POINTS if n in body.joint_names]
-    assert len(pinned) == 12 and err[pinned].max() < 1.0
+    assert len(pinned) == 13 and err[pinned].max() < 1.0
     assert err.max() < 5.0
     np.testing.assert_allclose(got_chi[:, 6:], chi[:, 6:], atol=np.radians(1.0))
     assert sel[0] == 0 and len(sel) == 10
