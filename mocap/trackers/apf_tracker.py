@@ -1,5 +1,7 @@
-"""Silhouette trackers built on the annealed particle filter: ``apf`` (100 x 15, E_S + lambda E_R)
-and ``apf_prior`` (25 x 10, with the pose prior E_P), Zhang et al. 2013, Sec. 4.2."""
+"""Silhouette trackers built on the annealed particle filter: ``apf`` (E_S + lambda E_R) and
+``apf_prior`` (a smaller budget, with the pose prior E_P), Zhang et al. 2013, Sec. 4.2; their
+settings: :class:`~mocap.trackers.tracker_settings.APFTrackerSettings`, the presets
+:mod:`mocap.trackers.presets`."""
 
 from __future__ import annotations
 

@@ -150,7 +150,7 @@ class LocalSettings(LocalStepSettings):
 
 @dataclass(frozen=True)
 class HybridSearchSettings(SilhouetteSearchSettings):
-    """The hybrid's APF over the misaligned limbs: 25 x 10, without the pose prior (ours is
+    """The hybrid's APF over the misaligned limbs: a small budget, without the pose prior (ours is
     learned from our own motion library and pulls limbs away on motions from other code),
     its first layer wide (``init_std``: the search starts from a limb known to be wrong) with a
     share ``restart`` of it drawn uniformly within the searched angles' limits, of which a
@@ -184,7 +184,7 @@ class HybridSearchSettings(SilhouetteSearchSettings):
 def _hybrid_local() -> LocalStepSettings:
     """The hybrid's local step: the misalignment check also charges observed pixels the model
     leaves unexplained to the nearest limb chain (0: the paper's one-sided check), and the
-    shape is refined every 10 frames."""
+    shape is refined while tracking."""
     return LocalStepSettings(misalignment=MisalignmentSettings(unexplained=0.005),
                              shape=ShapeRefinement(every=10))
 

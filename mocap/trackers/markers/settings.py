@@ -59,8 +59,9 @@ class MarkerInit:
 
 @dataclass(frozen=True)
 class MarkerSettings(APFSettings):
-    """``marker_apf`` (Canton-Ferrer et al. 2010): the annealed search (100 x 6, survival
-    rate 0.25, shrink 0.85; ``crossover``: each limb resampled by its own landmarks), its
+    """``marker_apf`` (Canton-Ferrer et al. 2010): the annealed search (fewer layers, a lower
+    survival rate and a faster shrink than the silhouette APF's; ``crossover``: each limb
+    resampled by its own landmarks), its
     first-layer diffusion ``init_std`` (twist v m, twist omega rad, angles rad), the
     constant-velocity prediction's ``prediction_damping``; the likelihood
     (:class:`~mocap.energy.markers.MarkerLikelihood`: ``gate`` the outlier threshold tau as a
