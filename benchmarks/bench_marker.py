@@ -1,4 +1,4 @@
-"""Benchmark: frames per second of ``marker_apf`` (conf/tracker/marker_apf.yaml).
+"""Benchmark: frames per second of ``marker_apf`` (the preset of :mod:`mocap.trackers.presets`).
 
     .venv/bin/python benchmarks/bench_marker.py [--frames 60] [--particles P --layers L]
     .venv/bin/python benchmarks/bench_marker.py --keypoints --views 5     # 5 views x 25 keypoints
@@ -25,7 +25,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from mocap import presets
 from mocap.body import load_body_model
@@ -34,7 +33,7 @@ from mocap.data.crowd import crowd_detections
 from mocap.data.generate import make_synthetic
 from mocap.data.openpose import LAYOUTS
 from mocap.energy.markers import MarkerEnergy, pinhole_project, view_costs
-from mocap.trackers.factory import make_marker_tracker
+from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence
 
 REPO = Path(__file__).resolve().parents[1]
@@ -76,12 +75,8 @@ def main() -> None:
         det, _ = crowd_detections(body, rig, seq.gt.chi[None], seq.gt.alpha[None], labels, noise_px=2.0,
                                   seed=args.seed)
         seq = replace(seq, detections=det)
-    cfg = yaml.safe_load((REPO / "mocap_cli/conf/tracker/marker_apf.yaml").read_text())
-    cfg.pop("_target_")
-    for k in ("particles", "layers"):
-        if getattr(args, k) is not None:
-            cfg[k] = getattr(args, k)
-    trk = make_marker_tracker(body=body, rig=rig, rng=np.random.default_rng(args.seed), **cfg)
+    budget = {k: getattr(args, k) for k in ("particles", "layers") if getattr(args, k) is not None}
+    trk = make_tracker("marker_apf", body=body, rig=rig, rng=np.random.default_rng(args.seed), **budget)
     trk.likelihood = replace(trk.likelihood, compiled=not args.numpy)
     step_cpu: list[float] = []
     inner_step = trk.step
@@ -100,7 +95,7 @@ def main() -> None:
     step = np.array(res.seconds[2:])                   # frame 1 builds the landmark set and groups
     obs = np.array([e.diagnostics["timings"]["observation"] for e in res.estimates[2:]])
     search = np.array([e.diagnostics["timings"]["search"] for e in res.estimates[2:]])
-    P, L = cfg["particles"], cfg["layers"]
+    P, L = trk.settings.particles, trk.settings.layers
     kind = "numpy" if args.numpy else "compiled"
     print(f"marker_apf {P} particles x {L} layers, {len(rig)} views, {len(trk.landmarks)} landmarks, "
           f"{kind} likelihood, "

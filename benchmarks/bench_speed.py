@@ -40,8 +40,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from hydra import compose, initialize_config_dir
-from hydra.utils import instantiate
 
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
@@ -50,6 +48,7 @@ from mocap.local import solver as solver_module
 from mocap.threads import thread_budget
 from mocap.trackers.base import Frame
 from mocap.trackers.run import frame_of, noisy_initial_pose
+from mocap_cli.hydra_edge import build, compose
 
 REPO = Path(__file__).resolve().parents[1]
 BASELINE = REPO / "benchmarks" / "baseline_speed.json"
@@ -76,10 +75,8 @@ def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, 
     """Mean and median seconds per tracked frame, mean energy evaluations, and every frame's
     seconds."""
     cfg_name, overrides, images = TRACKERS[name]
-    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
-        cfg = compose("track", overrides=[f"tracker={cfg_name}", *overrides])
-    tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=rig,
-                                                         rng=np.random.default_rng(0))
+    cfg = compose("track", [f"tracker={cfg_name}", *overrides])
+    tracker = build(cfg.tracker, body=body, rig=rig, rng=np.random.default_rng(0))
     tracker.initialize(noisy_initial_pose(body, seq.gt.chi[0], np.random.default_rng(0), 3.0, 0.02),
                        seq.gt.alpha)
     times, evals = [], []
@@ -125,9 +122,8 @@ def main() -> None:
                    help="append every frame's seconds to this JSON-lines file (one line per run)")
     args = p.parse_args()
 
-    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
-        base = compose("track")
-    body = instantiate(base.body)
+    base = compose("track")
+    body = build(base.body)
     rig = rig_from_config("mpi08")
     names = args.trackers.split(",")
     images = any(TRACKERS[n][2] for n in names)

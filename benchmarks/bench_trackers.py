@@ -17,12 +17,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from hydra import compose, initialize_config_dir
-from hydra.utils import instantiate
 
 from mocap.cameras import rig_from_config
 from mocap.data.generate import make_synthetic
 from mocap.trackers.run import frame_of, noisy_initial_pose
+from mocap_cli.hydra_edge import build, compose
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -34,18 +33,16 @@ def main() -> None:
     p.add_argument("--images", action="store_true")
     p.add_argument("--cameras", default="mpi08")
     args = p.parse_args()
-    with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
-        base = compose("track")
-    body = instantiate(base.body)
+    base = compose("track")
+    body = build(base.body)
     rig = rig_from_config(args.cameras)
     seq = make_synthetic(body, rig, motion="walk", frames=args.frames, fps=25, seed=0, images=args.images)
     print(f"{len(rig)} views {rig.sizes[0][0]}x{rig.sizes[0][1]}, {args.frames - 1} tracked frames, "
           f"images: {args.images}")
     print(f"{'tracker':12s} {'mean s':>8s} {'median s':>9s} {'evals':>7s}")
     for name in args.trackers.split(","):
-        with initialize_config_dir(str(REPO / "mocap_cli" / "conf"), version_base="1.3"):
-            cfg = compose("track", overrides=[f"tracker={name}"])
-        tracker = instantiate(cfg.tracker, _partial_=True)(body=body, rig=rig, rng=np.random.default_rng(0))
+        cfg = compose("track", [f"tracker={name}"])
+        tracker = build(cfg.tracker, body=body, rig=rig, rng=np.random.default_rng(0))
         tracker.initialize(noisy_initial_pose(body, seq.gt.chi[0], np.random.default_rng(0), 3.0, 0.02),
                            seq.gt.alpha)
         times, evals = [], []

@@ -14,13 +14,13 @@ bash scripts/setup_env.sh
 export PYOPENGL_PLATFORM="${PYOPENGL_PLATFORM:-egl}"
 SWEEP="outputs/main/$(date +%Y-%m-%d_%H-%M-%S)"
 TRACKERS="${TRACKERS:-local,apf,apf_prior,apf_25x10,hybrid}"
-.venv/bin/python experiments/track.py --multirun "tracker=$TRACKERS" data=mismatch_box frames=20 seed=0 \
+.venv/bin/mocap track --multirun "tracker=$TRACKERS" data=mismatch_box frames=20 seed=0 \
   init.mode=tracker init.cache=outputs/init_cache "hydra.sweep.dir=$SWEEP/silhouettes" "$@"
 # the marker tracker needs 2D detections: synthetic walking seen as marker detections
-.venv/bin/python experiments/track.py --multirun tracker=marker_apf data=walk_markers_small seed=0 \
+.venv/bin/mocap track --multirun tracker=marker_apf data=walk_markers_small seed=0 \
   "hydra.sweep.dir=$SWEEP/markers" "$@"
-.venv/bin/python experiments/ablate.py "$SWEEP" \
+.venv/bin/mocap ablate "$SWEEP" \
   --title "Tracker comparison (silhouettes: model-mismatch boxing, 8 views, 20 frames, self-initialised; markers: synthetic walking)"
 echo
-echo "recordings (open with: .venv/bin/rerun <file>, or python experiments/replay.py <run dir>):"
+echo "recordings (open with: .venv/bin/rerun <file>, or .venv/bin/mocap replay <run dir>):"
 find "$SWEEP" -name recording.rrd | sort | sed 's/^/  /'
