@@ -44,7 +44,7 @@ def short_run(tmp_path_factory) -> Path:
     import sys
 
     out = tmp_path_factory.mktemp("short_run")
-    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={out}",
+    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={out}",
                         "tracker=apf_prior", "frames=4", "data=walk_small", "tracker.particles=6",
                         "tracker.layers=2"], capture_output=True, text=True, cwd=REPO, timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]

@@ -1,13 +1,16 @@
 """The library without the repository (issue 10): the wheel built from the sources, installed
 into a fresh virtual environment outside the checkout (its dependencies from uv's cache,
 offline), tracks a short synthetic sequence from a working directory outside the checkout,
-with its body model, pose prior and presets read from the installed package data."""
+with its body model, pose prior and presets read from the installed package data; and its
+``mocap`` console script (issue 23) tracks, sweeps, exports and tabulates there, with the
+Hydra configs read from the wheel."""
 
 import json
 import os
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -44,10 +47,15 @@ def test_the_wheel_installed_outside_the_checkout_tracks(tmp_path):
     src.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, src / name)
-    shutil.copytree(REPO / "mocap", src / "mocap",
-                    ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.nbi", "*.nbc"))
+    for package in ("mocap", "mocap_cli"):
+        shutil.copytree(REPO / package, src / package,
+                        ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.nbi", "*.nbc"))
     run([UV, "build", "--wheel", "--offline", "--out-dir", tmp_path / "dist", src])
     (wheel,) = (tmp_path / "dist").glob("mocap-*.whl")
+    names = set(zipfile.ZipFile(wheel).namelist())
+    conf = {p.relative_to(REPO).as_posix() for p in (REPO / "mocap_cli" / "conf").rglob("*.yaml")}
+    assert conf and conf <= names, sorted(conf - names)           # every Hydra config ships
+    assert "mocap_cli/main.py" in names
     python = getattr(sys, "_base_executable", sys.executable)
     run([UV, "venv", "--offline", "--python", python, tmp_path / "venv"])
     py = tmp_path / "venv" / "bin" / "python"
@@ -63,3 +71,23 @@ def test_the_wheel_installed_outside_the_checkout_tracks(tmp_path):
     assert out["frames"] == 4 and out["dofs"] == 22
     assert out["mean_joint_error_mm"] < 60.0, out      # started at ground truth + 3 deg noise
     assert out["hydra_imported"] is False              # no Hydra below the entry points
+
+    # the console script, from the same folder outside the checkout
+    mocap = tmp_path / "venv" / "bin" / "mocap"
+    assert "track" in run([mocap, "--help"], cwd=work, env=env).stdout
+    tiny = ["data=walk_small", "data.frames=3", "frames=3", "tracker=apf_prior", "tracker.particles=6",
+            "tracker.layers=2", "recording.every=2"]
+    run([mocap, "track", *tiny, "hydra.run.dir=runs/one"], cwd=work, env={**env, "TQDM_DISABLE": "1"})
+    metrics = json.loads((work / "runs" / "one" / "metrics.json").read_text())
+    assert metrics["frames"] == 3 and metrics["tracker"] == "apf_prior" and metrics["mpjpe_mm"] < 80
+    assert metrics["config"]["data"]["cameras"] == "ring4_small"
+    assert (work / "runs" / "one" / "recording.rrd").is_file()
+    exported = run([mocap, "export", "runs/one", "--format", "bvh"], cwd=work, env=env)
+    bvh = (work / "runs" / "one" / "motion.bvh").read_text()
+    assert "wrote" in exported.stdout and bvh.startswith("HIERARCHY") and "Frames: 3" in bvh
+    run([mocap, "track", "--multirun", *tiny, "seed=0,1", "hydra.sweep.dir=sweep"], cwd=work,
+        env={**env, "TQDM_DISABLE": "1"})
+    table = run([mocap, "ablate", "sweep", "--strict"], cwd=work, env=env).stdout
+    assert "apf_prior" in table and (work / "sweep" / "ablation.csv").is_file()
+    rows = (work / "sweep" / "ablation.csv").read_text().splitlines()
+    assert len(rows) == 2 and "apf_prior" in rows[1]                  # two seeds, one row

@@ -14,7 +14,6 @@ from scipy.spatial.transform import Rotation
 from mocap.export import export_run, run_body
 from mocap.export.axes import BVH_FROM_WORLD, GLTF_FROM_WORLD, OPENSIM_FROM_WORLD
 from mocap.export.motion import load_motion
-from tests.export.conftest import REPO
 
 
 def read_bvh_joints(path) -> tuple[list[str], np.ndarray, float]:
@@ -175,7 +174,7 @@ def test_c3d_reads_back_with_ezc3d(short_run, motion, tmp_path):
 
 def test_export_refuses_bad_input(short_run, tmp_path):
     def cli(*args):
-        return subprocess.run([sys.executable, str(REPO / "experiments" / "export.py"), *map(str, args)],
+        return subprocess.run([sys.executable, "-m", "mocap_cli", "export", *map(str, args)],
                               capture_output=True, text=True, timeout=120)
 
     r = cli(tmp_path, "--format", "bvh")

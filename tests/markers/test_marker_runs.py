@@ -1,6 +1,6 @@
-"""experiments/track.py with the marker tracker on the real Pose2Sim recording, which has no
+"""mocap track with the marker tracker on the real Pose2Sim recording, which has no
 ground truth: the run reports the keypoint metrics of mocap/eval/keypoint_metrics.py.
-(Synthetic marker runs are covered by tests/experiments/test_track.py.)"""
+(Synthetic marker runs are covered by tests/cli/test_track.py.)"""
 
 import json
 import os
@@ -15,7 +15,7 @@ DEMO = Path(os.environ.get("MOCAP_SHARED_DATA") or REPO.parent / "shared" / "dat
 
 
 def run_track(tmp_path: Path, *overrides: str) -> dict:
-    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={tmp_path}",
+    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={tmp_path}",
                         "tracker=marker_apf", "recording.enabled=false", *overrides],
                        capture_output=True, text=True, cwd=REPO, timeout=300)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -34,7 +34,7 @@ def test_marker_run_on_the_pose2sim_demo_reports_keypoint_metrics(tmp_path):
 
 
 def test_marker_tracker_on_data_without_detections_fails_before_any_work(tmp_path):
-    r = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), f"hydra.run.dir={tmp_path}",
+    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={tmp_path}",
                         "tracker=marker_apf", "data=walk_small", "data.frames=2", "recording.enabled=true"],
                        capture_output=True, text=True, cwd=REPO, timeout=300)
     assert r.returncode != 0

@@ -17,7 +17,7 @@ FAST = ["tracker=apf", "data=walk_small", "frames=2", "tracker.particles=4", "tr
 
 
 def track(run_dir: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"),
+    return subprocess.run([sys.executable, "-m", "mocap_cli", "track",
                            f"hydra.run.dir={run_dir}", *FAST, *args],
                           capture_output=True, text=True, cwd=REPO, timeout=600)
 

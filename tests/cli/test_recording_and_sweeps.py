@@ -14,7 +14,7 @@ FAST = ["data=walk_small", "tracker.particles=6", "tracker.layers=2"]
 
 
 def track(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), *args],
+    return subprocess.run([sys.executable, "-m", "mocap_cli", "track", *args],
                           capture_output=True, text=True, cwd=cwd, timeout=900)
 
 
@@ -52,12 +52,12 @@ def test_recording_passes_rerun_verify(run_dir):
 
 
 def test_replay_prints_a_headless_summary(run_dir):
-    r = subprocess.run([sys.executable, str(REPO / "experiments" / "replay.py"), str(run_dir),
+    r = subprocess.run([sys.executable, "-m", "mocap_cli", "replay", str(run_dir),
                         "--summary"], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert "frames 0..3" in r.stdout and "/world/body/estimate" in r.stdout
     assert "mpjpe_mm" in r.stdout
-    bad = subprocess.run([sys.executable, str(REPO / "experiments" / "replay.py"), "/nonexistent"],
+    bad = subprocess.run([sys.executable, "-m", "mocap_cli", "replay", "/nonexistent"],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "no such run directory" in bad.stderr
 
@@ -87,7 +87,7 @@ def test_multirun_two_trackers_two_seeds_then_resume_and_ablate(tmp_path):
     assert (runs[0] / "metrics.json").is_file()
     # ablation table, with one broken run named
     (runs[1] / "metrics.json").write_text("{broken")
-    out = subprocess.run([sys.executable, str(REPO / "experiments" / "ablate.py"), str(sweep)],
+    out = subprocess.run([sys.executable, "-m", "mocap_cli", "ablate", str(sweep)],
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     md = (sweep / "ablation.md").read_text()

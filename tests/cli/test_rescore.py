@@ -1,4 +1,4 @@
-"""experiments/rescore.py: a finished run re-scored from its motion.npz and stored config."""
+"""mocap rescore: a finished run re-scored from its motion.npz and stored config."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ WALK = REPO / "data" / "mismatch" / "walk"
 
 
 def rescore(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(REPO / "experiments" / "rescore.py"), *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "mocap_cli", "rescore", *map(str, args)],
                           capture_output=True, text=True, cwd=REPO, timeout=600)
 
 

@@ -1,4 +1,4 @@
-"""experiments/recovery.py end to end: the track.py harness (motion.npz, metrics.json,
+"""mocap recovery end to end: the track.py harness (motion.npz, metrics.json,
 recording.rrd) with a frame skip and a perturbation injected, and recovery figures that agree
 with the per-frame errors it wrote."""
 
@@ -23,8 +23,7 @@ def naive_frames_to_recover(errors, at, skipped, window, factor):
 
 
 def test_recovery_writes_the_track_outputs_and_consistent_figures(tmp_path):
-    script = str(REPO / "experiments" / "recovery.py")
-    r = subprocess.run([sys.executable, script, f"hydra.run.dir={tmp_path}",
+    r = subprocess.run([sys.executable, "-m", "mocap_cli", "recovery", f"hydra.run.dir={tmp_path}",
                         "data=walk_small", "frames=8", "tracker=local", "tracker.iterations=3",
                         "+tracker.sift.enabled=false", "recording.particles=false",
                         "recovery.skip_at=2", "recovery.skip=2", "recovery.perturb_at=5",

@@ -1,8 +1,7 @@
-"""experiments/silhouette_floor.py: from the oracle, E_S lowered by shape then by every pose."""
+"""studies/silhouette_floor.py: from the oracle, E_S lowered by shape then by every pose."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
@@ -13,12 +12,11 @@ from mocap.eval.mismatch import fit_oracle
 
 REPO = Path(__file__).resolve().parents[2]
 WALK = REPO / "data" / "mismatch" / "walk"
-sys.path.insert(0, str(REPO / "experiments"))
 
 
 @pytest.mark.skipif(not WALK.is_dir(), reason="the model-mismatch data is not in this checkout")
 def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouette_energy():
-    import silhouette_floor
+    from studies import silhouette_floor
 
     out = silhouette_floor.floor("mismatch_walk", rounds=1, keyframes=2, frames=3, seed=0)
     oracle, shape, poses = out["stages"]
@@ -32,7 +30,7 @@ def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouett
 
 
 def test_data_our_model_rendered_is_refused():
-    import silhouette_floor
+    from studies import silhouette_floor
 
     with pytest.raises(ValueError, match="rendered by our own body model"):
         silhouette_floor.floor("walk_small", rounds=1, keyframes=2, frames=2, seed=0)

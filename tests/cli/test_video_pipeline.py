@@ -27,8 +27,8 @@ pytestmark = [pytest.mark.skipif(DEMO is None, reason="Pose2Sim demo not present
               pytest.mark.slow]           # ~30 s each on an idle 2-core machine, decoding + GrabCut
 
 
-def run(script: str, *overrides: str) -> subprocess.CompletedProcess:
-    out = subprocess.run([sys.executable, str(REPO / "experiments" / script), *overrides],
+def run(command: str, *overrides: str) -> subprocess.CompletedProcess:
+    out = subprocess.run([sys.executable, "-m", "mocap_cli", command, *overrides],
                          capture_output=True, text=True, cwd=REPO, timeout=600,
                          env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
     assert out.returncode == 0, out.stderr[-3000:]
@@ -37,17 +37,17 @@ def run(script: str, *overrides: str) -> subprocess.CompletedProcess:
 
 def test_segment_then_video_check_with_the_keypoint_tracker(tmp_path):
     seg = tmp_path / "seg"
-    run("segment.py", f"data.path={DEMO}", "data.start=0", "data.stop=6", "data.step=2", f"out={seg}")
+    run("segment", f"data.path={DEMO}", "data.start=0", "data.stop=6", "data.step=2", f"out={seg}")
     meta = json.loads((seg / "sequence.json").read_text())
     assert meta["frames"] == 3 and meta["image_size"] == [272, 480]
     assert meta["meta"]["source_frames"] == [0, 2, 4] and meta["meta"]["segmentation"]["multiview"]
-    run("video_check.py", "tracker=marker_apf", f"data.path={DEMO}", f"data.masks={seg}", "data.stop=6",
+    run("video-check", "tracker=marker_apf", f"data.path={DEMO}", f"data.masks={seg}", "data.stop=6",
         "tracker.particles=20", "tracker.layers=3", f"hydra.run.dir={tmp_path / 'run'}")
     m = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert m["frames"] == 3 and 0.3 < m["silhouette_iou"] <= 1.0
     # the keypoint tracker reprojects onto its own keypoints within a few tens of full-res px
     assert m["reprojection"]["fitted_median_px"] < 40
-    assert (tmp_path / "run" / "estimates.npz").is_file() and (tmp_path / "run" / "recording.rrd").is_file()
+    assert (tmp_path / "run" / "motion.npz").is_file() and (tmp_path / "run" / "recording.rrd").is_file()
 
 
 def test_reference_masks_are_complete_and_the_guided_method_beats_the_median():

@@ -7,8 +7,9 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
+from mocap_cli import CONF_DIR as CONF  # importing mocap_cli registers ${mocap_data:}
+
 REPO = Path(__file__).resolve().parents[2]
-CONF = REPO / "mocap_cli" / "conf"
 
 
 def options(group: str) -> list[str]:

@@ -57,7 +57,7 @@ def test_ground_truth_with_joints_the_body_lacks_fails_before_any_work(body, tmp
                               gt=dataclasses.replace(gt, joints=joints, joint_names=tuple(names), skeleton="",
                                                      joint_valid=None))
     write_sequence(bad, tmp_path / "seq")
-    out = subprocess.run([sys.executable, str(REPO / "experiments" / "track.py"), "data=folder",
+    out = subprocess.run([sys.executable, "-m", "mocap_cli", "track", "data=folder",
                           f"data.path={tmp_path / 'seq'}", "tracker=local", "init.mode=tracker",
                           f"hydra.run.dir={tmp_path / 'run'}"], capture_output=True, text=True, cwd=REPO,
                          timeout=300)
