@@ -9,6 +9,7 @@ limb segments (degrees), and the time per frame. Writes a markdown table (defaul
 docs/results/real_motion_retargeting.md) and the numbers as JSON beside it.
 
     OPENBLAS_NUM_THREADS=1 python studies/retarget_residuals.py --step 5 [--limit N] [--body paper22]
+        [--match positions|segments] [--out docs/results/real_motion_retargeting.md]
 
 The residuals are derived from data licensed CC BY-NC 4.0 (see the output's attribution).
 """
@@ -70,7 +71,7 @@ def offset_removed(r) -> float:
     return float(np.median(err))
 
 
-def run(data: Path, step: int, body_name: str, limit: int | None) -> dict:
+def run(data: Path, step: int, body_name: str, limit: int | None, match: str = "positions") -> dict:
     index = list(csv.DictReader(open(data / "index.csv")))[:limit]
     body = load_body(body_name)
     clips = []
@@ -79,7 +80,7 @@ def run(data: Path, step: int, body_name: str, limit: int | None) -> dict:
         t0 = time.perf_counter()
         clip = read_bvh(path)
         t_read = time.perf_counter() - t0
-        r = retarget(clip, body, step=step)
+        r = retarget(clip, body, step=step, match=match)
         s = r.summary()
         s.update(file=row["file"], motion=row["motion"], style=row["style"], source_frames=clip.num_frames,
                  read_s=t_read, segment_deg=segment_angles(r), offset_removed_median_mm=offset_removed(r),
@@ -88,7 +89,7 @@ def run(data: Path, step: int, body_name: str, limit: int | None) -> dict:
         print(f"[{k + 1}/{len(index)}] {Path(row['file']).name}: {r.num_frames} frames, "
               f"median {r.median_mm:.1f} max {r.max_mm:.1f} mm (offsets removed: "
               f"{s['offset_removed_median_mm']:.1f}), {1e3 * r.seconds_per_frame:.1f} ms/frame", flush=True)
-    return {"body": body_name, "step": step, "clips": clips}
+    return {"body": body_name, "step": step, "match": match, "clips": clips}
 
 
 def table(res: dict, command: str, commit: str) -> str:
@@ -102,7 +103,8 @@ def table(res: dict, command: str, commit: str) -> str:
     L = [f"# Real motion retargeted onto our body ({res['body']})", "",
          f"Command: `{command}`  ", f"Commit: `{commit}`  ",
          f"Clips: {len(clips)} of the Bandai Namco Research Motion Dataset 1, every {res['step']}th frame "
-         f"({int(frames.sum())} frames); name map `bandai_namco`; one shape per clip, joint limits.", "",
+         f"({int(frames.sum())} frames); name map `bandai_namco`; one shape per clip, joint limits; "
+         f"match `{res.get('match', 'positions')}`.", "",
          f"> {ATTRIBUTION} These figures are derived from it (non-commercial use).", "",
          "## Summary", "",
          "| | value |", "|---|---|",
@@ -149,6 +151,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--step", type=int, default=5)
     ap.add_argument("--body", default="paper22")
     ap.add_argument("--limit", type=int, default=None, help="only the first N clips of index.csv")
+    ap.add_argument("--match", default="positions", choices=["positions", "segments"],
+                    help="retarget's match: the clip's joint positions or its segments' directions")
     ap.add_argument("--out", type=Path, default=REPO / "docs" / "results" / "real_motion_retargeting.md")
     args = ap.parse_args(argv)
     if not (args.data / "index.csv").is_file():
@@ -157,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     command = "OPENBLAS_NUM_THREADS=1 python studies/retarget_residuals.py " + " ".join(argv or sys.argv[1:])
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True,
                             text=True).stdout.strip()
-    res = run(args.data, args.step, args.body, args.limit)
+    res = run(args.data, args.step, args.body, args.limit, args.match)
     res.update(command=command, commit=commit, attribution=ATTRIBUTION)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(table(res, command, commit))

@@ -56,7 +56,7 @@ def test_own_motion_comes_back(body, action):
     within 5 mm (~2 mm measured)."""
     chi, alpha = own_motion(body, action)
     targets = own_points(body, chi, alpha, BANDAI_POINTS)
-    got_chi, got_alpha, fitted, sel = retarget_points(BANDAI_POINTS, targets, body, shape_nfev=100)
+    got_chi, got_alpha, fitted, sel = retarget_points(BANDAI_POINTS, targets, body)
     err = 1e3 * np.linalg.norm(fitted - targets, axis=-1)
     assert err.max() < 1.0, err.max()
     joints_true = body.shaped(alpha).joints(chi).astype(np.float64)
@@ -92,6 +92,9 @@ def test_clip_through_bvh_export_and_back(body, tmp_path):
     assert 1e3 * np.abs(got - fitted).max() < 1.0
     with pytest.raises(FileExistsError, match="exists"):
         import_motion(first, out, body)
+    # matching segment directions instead of positions: the same motion (one skeleton)
+    seg = retarget(clip, body, match="segments")
+    assert seg.match == "segments" and seg.max_mm < 1.0
 
 
 @pytest.mark.slow
@@ -105,6 +108,16 @@ def test_real_clip_retargets_and_reads_back(body, tmp_path):
     # 0.35 m): residuals of a few cm at shoulders and hips, under 15 mm at knees and ankles
     assert r.median_mm < 30.0 and r.max_mm < 80.0
     assert max(r.per_joint_median_mm[n] for n in ("l_knee", "r_knee", "l_ankle", "r_ankle")) < 15.0
+    # segments: our thighs and shins along the clip's (they have the DOFs for it; a few degrees
+    # off where a joint limit stops them), the trunk within 2 deg
+    seg = retarget(clip, body, step=2, match="segments")
+    names = list(seg.point_names)
+    for a, b, tol in (("l_hip", "l_knee", 0.5), ("r_knee", "r_ankle", 0.5), ("pelvis", "neck_base", 2.0)):
+        u = seg.targets[:, names.index(b)] - seg.targets[:, names.index(a)]
+        v = seg.fitted[:, names.index(b)] - seg.fitted[:, names.index(a)]
+        cos = (u * v).sum(-1) / np.linalg.norm(u, axis=-1) / np.linalg.norm(v, axis=-1)
+        deg = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+        assert np.median(deg) < tol and deg.max() < 5.0, (a, b)
     out = import_motion(clip_path, tmp_path / "m.npz", body, frames=slice(0, 60), step=2)
     motion = load_motion(out)
     np.testing.assert_allclose(motion.chi, r.chi, atol=1e-9)
