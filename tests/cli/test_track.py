@@ -84,12 +84,12 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
         point[key] = str(values).split(",")[-1]
     overrides = [f"{k}={v}" for k, v in point.items() if k != "seed"]
     tracker = point.get("tracker", cfg.hydra.runtime.choices.tracker)
-    budget = [o for o in ("tracker.particles=8", "tracker.layers=2") if o.split("=")[0] not in point]
+    budget = [o for o in ("++tracker.particles=8", "++tracker.layers=2") if o.split("=")[0][2:] not in point]
     if tracker == "local":
         budget = []
     if cfg.init.mode == "tracker":           # a self-initialising sweep: a cheap initialisation
-        budget += ["+tracker.initialization.rounds=0", "+tracker.initialization.hypotheses=0",
-                   "+tracker.initialization.pose_particles=8", "+tracker.initialization.pose_layers=2",
+        budget += ["++tracker.initialization.rounds=0", "++tracker.initialization.hypotheses=0",
+                   "++tracker.initialization.pose_particles=8", "++tracker.initialization.pose_layers=2",
                    f"init.cache={tmp_path / 'cache'}"]
     r = run_track(tmp_path, f"+sweep={sweep}", "frames=2", *budget, *overrides)
     assert r.returncode == 0, r.stderr[-3000:]
