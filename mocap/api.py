@@ -33,12 +33,12 @@ def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None
           init: str | np.ndarray = "auto", alpha: np.ndarray | None = None, frames: int | None = None,
           noise_deg: float = 3.0, noise_translation: float = 0.02, **settings) -> TrackResult:
     """Track ``sequence`` with the tracker named ``tracker`` and return its estimates (one per
-    frame; frame 0 is the initial pose) and step times, as ``experiments/track.py`` does.
+    frame; frame 0 is the initial pose) and step times, as ``mocap track`` does.
 
     init: a pose (D,) (then ``alpha`` (K,) is the shape, default the mean); ``"gt_noise"``:
     ground truth plus noise (``noise_deg`` on angles, ``noise_translation`` m); ``"tracker"``:
     the tracker initialises itself from frame 0; ``"auto"``: gt_noise when the sequence has
-    ground truth, else tracker. The randomness is that of ``track.py`` with the same seed.
+    ground truth, else tracker. The randomness is that of ``mocap track`` with the same seed.
     """
     body = body if body is not None else load_body("paper22")
     rng = np.random.default_rng(seed)

@@ -7,7 +7,7 @@ runs inside :func:`thread_budget`, with ``threads: auto`` = cores divided by the
 running in parallel (1 in a single run). Results depend on the budget at rounding level (BLAS
 and parallel reductions sum in another order), and the hybrid's annealed search can turn that
 into another track: on the noisy mismatch walk, seed 0, one thread gave 78.5 mm and two threads
-60.6 mm from the same start. ``experiments/track.py`` records the budget in metrics.json
+60.6 mm from the same start. ``mocap track`` records the budget in metrics.json
 (``threads``); rerun with the same ``threads=`` to reproduce a run. That is not a guarantee:
 with ``threads=1`` on the mismatch box (seed 0, 21 frames) two runs gave identical poses, one
 differed by 1e-11 and one, run beside other processes, parted from frame 11 and was 0.3 rad off

@@ -7,7 +7,7 @@ whose images are decoded lazily (:class:`mocap.data.video.VideoFrames`).
 Videos are matched to cameras by name like keypoint folders (``cam01.mp4`` <-> ``cam_01``).
 The rig is the calibration scaled by ``scale``; keypoints (when a folder is given) are
 rescaled to it and renumbered to the selected frames. Masks come from a sequence folder made
-by ``experiments/segment.py`` (``masks=``) or are computed at load time (``segmentation=``,
+by ``mocap segment`` (``masks=``) or are computed at load time (``segmentation=``,
 see :func:`mocap.data.segmentation.segment_sequence`).
 """
 

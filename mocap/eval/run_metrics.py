@@ -68,7 +68,7 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
 def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray) -> dict:
     """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,),
     or one shape per frame (F, K) (frame 0: the initialisation): what a run is re-scored with
-    when the evaluation changes (``experiments/rescore.py``)."""
+    when the evaluation changes (``mocap rescore``)."""
     F = len(chis)
     out: dict = {}
     scorer = NameScorer(body, seq.gt)

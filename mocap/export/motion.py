@@ -1,6 +1,6 @@
 """``motion.npz``: the motion a run produced, kept in its run directory.
 
-Every run of ``experiments/track.py`` writes it (atomically: a temporary file renamed into
+Every run of ``mocap track`` writes it (atomically: a temporary file renamed into
 place once complete, so a killed run leaves none that looks complete). Keys (F frames,
 J joints, L landmarks, D DOFs, K shape coefficients; world metres, Z up, float64 unless said):
 
