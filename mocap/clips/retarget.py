@@ -49,7 +49,8 @@ class Retargeted:
     fitted (F, S, 3) our points (metres, Z up); residual_mm (F, S) their distances;
     point_names (S,) our names, clip_names (S,) the clip's; frame_index (F,) the clip's
     frames used, times (F,) seconds; fps of the result; shape_frames: the frames alpha was
-    fitted on (indices into the F frames); seconds: wall time of the whole retargeting."""
+    fitted on (indices into the F frames); seconds: wall time of the whole retargeting,
+    cpu_seconds: its process CPU time (what a busy machine does not inflate)."""
 
     path: Path | None
     body: str
@@ -68,6 +69,7 @@ class Retargeted:
     seconds: float
     name_map: str = ""
     match: str = "positions"
+    cpu_seconds: float = float("nan")
 
     @property
     def num_frames(self) -> int:
@@ -106,6 +108,8 @@ class Retargeted:
                 "median_mm": self.median_mm, "max_mm": self.max_mm, "mean_mm": self.mean_mm,
                 "per_joint_median_mm": self.per_joint_median_mm, "per_joint_max_mm": self.per_joint_max_mm,
                 "seconds": self.seconds, "ms_per_frame": 1e3 * self.seconds_per_frame,
+                "cpu_seconds": self.cpu_seconds,
+                "cpu_ms_per_frame": 1e3 * self.cpu_seconds / max(self.num_frames, 1),
                 "body": self.body, "name_map": self.name_map, "match": self.match}
 
 
@@ -247,7 +251,7 @@ def retarget(clip: Clip, body: BodyModel, *, name_map: NameMap | str | Path | No
         raise ValueError(f"step={step!r} for {clip.path}: a positive integer")
     if match not in ("positions", "segments"):
         raise ValueError(f"match={match!r} for {clip.path}: 'positions' or 'segments'")
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     if fps is not None:
         clip = resample(clip, fps)
     nm, clip_names, ours, targets = clip_targets(clip, body, name_map)
@@ -264,4 +268,5 @@ def retarget(clip: Clip, body: BodyModel, *, name_map: NameMap | str | Path | No
                       frame_index=clip.frame_index[keep], times=times, chi=chi, alpha=alpha,
                       point_names=tuple(ours), clip_names=tuple(clip_names), targets=targets, fitted=fitted,
                       residual_mm=1e3 * np.linalg.norm(fitted - targets, axis=-1), shape_frames=sel,
-                      seconds=time.perf_counter() - t0, name_map=nm.name, match=match)
+                      seconds=time.perf_counter() - t0, name_map=nm.name, match=match,
+                      cpu_seconds=time.process_time() - c0)

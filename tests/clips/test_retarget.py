@@ -173,3 +173,58 @@ def test_bad_name_maps(tmp_path, body):
     clip = read_bvh(small_bvh(tmp_path), unit="m", up="z")
     with pytest.raises(ValueError, match=r"name map 'bad' .*no point of body 'paper22' is called l_kneecap"):
         retarget(clip, body, name_map=bad)
+
+
+CMU_TREE = {"Hips": (None, "pelvis"), "LHipJoint": ("Hips", "pelvis"), "LeftUpLeg": ("LHipJoint", "l_hip"),
+            "LeftLeg": ("LeftUpLeg", "l_knee"), "LeftFoot": ("LeftLeg", "l_ankle"),
+            "RHipJoint": ("Hips", "pelvis"), "RightUpLeg": ("RHipJoint", "r_hip"),
+            "RightLeg": ("RightUpLeg", "r_knee"), "RightFoot": ("RightLeg", "r_ankle"),
+            "LowerBack": ("Hips", "spine"), "Spine": ("LowerBack", "spine"), "Spine1": ("Spine", "thorax"),
+            "Neck": ("Spine1", "neck_base"), "Head": ("Neck", "head"),
+            "LeftShoulder": ("Spine1", "l_clavicle"), "LeftArm": ("LeftShoulder", "l_shoulder"),
+            "LeftForeArm": ("LeftArm", "l_elbow"), "LeftHand": ("LeftForeArm", "l_wrist"),
+            "RightShoulder": ("Spine1", "r_clavicle"), "RightArm": ("RightShoulder", "r_shoulder"),
+            "RightForeArm": ("RightArm", "r_elbow"), "RightHand": ("RightForeArm", "r_wrist")}
+
+
+def test_cmu_named_clip_of_our_motion_comes_back(body, tmp_path):
+    """A BVH with the CMU (cgspeed) joint names, in its units (1/0.45 inch) and Y up, whose
+    joints are our body's moving (position channels only): read with the cmu map (no options)
+    and retargeted, our points come back to < 1 mm."""
+    from mocap.export.axes import BVH_FROM_WORLD
+
+    chi, alpha = own_motion(body, "box", frames=8, seed=2)
+    ours = [o for _, o in CMU_TREE.values()]
+    pts = dict(zip(ours, np.moveaxis(own_points(body, chi, alpha, ours), 1, 0), strict=True))
+    names = list(CMU_TREE)
+    unit = 0.0254 / 0.45
+    world = {n: pts[o] for n, (_, o) in CMU_TREE.items()}
+    local = {n: (world[n] - (world[p] if p else 0.0)) @ BVH_FROM_WORLD.T / unit
+             for n, (p, _) in CMU_TREE.items()}
+
+    def block(n, depth):
+        pad = "  " * depth
+        kids = [c for c, (p, _) in CMU_TREE.items() if p == n]
+        end = f"{pad}  End Site\n{pad}  {{\n{pad}    OFFSET 0 1 0\n{pad}  }}\n"
+        inner = "".join(block(c, depth + 1) for c in kids) or end
+        return (f"{pad}{'ROOT' if depth == 0 else 'JOINT'} {n}\n{pad}{{\n{pad}  OFFSET 0 0 0\n"
+                f"{pad}  CHANNELS 3 Xposition Yposition Zposition\n{inner}{pad}}}\n")
+
+    order = []
+    def visit(n):
+        order.append(n)
+        for c, (p, _) in CMU_TREE.items():
+            if p == n:
+                visit(c)
+    visit("Hips")
+    rows = [" ".join(f"{v:.9f}" for n in order for v in local[n][f]) for f in range(len(chi))]
+    p = tmp_path / "cmu_like.bvh"
+    p.write_text("HIERARCHY\n" + block("Hips", 0) + f"MOTION\nFrames: {len(chi)}\nFrame Time: 0.04\n"
+                 + "\n".join(rows) + "\n")
+    clip = read_bvh(p)
+    assert clip.name_map == "cmu" and sorted(clip.names) == sorted(names)
+    np.testing.assert_allclose(clip.joint("LeftForeArm"), world["LeftForeArm"], atol=1e-8)
+    r = retarget(clip, body)
+    assert set(r.point_names) == {"neck_base", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow",
+                                  "r_wrist", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle"}
+    assert r.max_mm < 1.0
