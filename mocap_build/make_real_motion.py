@@ -49,8 +49,8 @@ Rebuild with:  bash scripts/install_build_deps.sh
 
 def sheet_row(seq, frames=(0, 30, 59), views=(6, 1), crop: int = 320, tile: int = 240) -> np.ndarray:
     """One row of the contact sheet: ``views`` of each of ``frames`` (exact mask, ground-truth
-    skeleton), each cropped to ``crop`` x ``crop`` pixels around the silhouette and shown at
-    ``tile`` pixels, under a strip naming the sequence."""
+    skeleton), each cropped to a square around the silhouette (at least ``crop`` pixels, larger
+    where the silhouette is) and shown at ``tile`` pixels, under a strip naming the sequence."""
     import cv2
 
     from mocap.viz.contact_sheet import contact_sheet
@@ -63,9 +63,10 @@ def sheet_row(seq, frames=(0, 30, 59), views=(6, 1), crop: int = 320, tile: int 
         for i in range(len(views)):
             ys, xs = np.nonzero(sub.masks[f, i])
             cy, cx = (ys.min() + ys.max()) // 2, (xs.min() + xs.max()) // 2
-            y0 = int(np.clip(cy - crop // 2, 0, h - crop))
-            x0 = int(np.clip(cx - crop // 2, 0, w - crop))
-            t = sheet[y0:y0 + crop, i * w + x0:i * w + x0 + crop]
+            side = min(max(crop, int(ys.max() - ys.min()) + 24, int(xs.max() - xs.min()) + 24), h, w)
+            y0 = int(np.clip(cy - side // 2, 0, h - side))
+            x0 = int(np.clip(cx - side // 2, 0, w - side))
+            t = sheet[y0:y0 + side, i * w + x0:i * w + x0 + side]
             t = cv2.resize(np.ascontiguousarray(t), (tile, tile), interpolation=cv2.INTER_AREA)
             cv2.putText(t, f"f{f} {seq.rig.names[views[i]]}", (4, tile - 6), cv2.FONT_HERSHEY_SIMPLEX,
                         0.4, (255, 255, 255), 1, cv2.LINE_AA)
