@@ -122,7 +122,19 @@ def _legend(fig, axes, title: str | None) -> None:
         names.append("oracle")
     if names:
         fig.legend([handles[n] for n in names], names, loc="outside lower center",
-                   ncols=min(len(names), 4), title=title, fontsize=9, title_fontsize=9, frameon=False)
+                   ncols=_legend_columns(names, fig.get_figwidth()), title=title, fontsize=9,
+                   title_fontsize=9, frameon=False)
+
+
+def _legend_columns(names: Sequence[str], width_in: float) -> int:
+    """As many columns as fit the figure's width (at 9 pt about 0.075 in per character plus
+    0.7 in for the handle and the gap), all in one row when they fit."""
+    for cols in range(len(names), 1, -1):
+        rows = [names[i::cols] for i in range(cols)]         # matplotlib fills column by column
+        widths = [0.7 + 0.075 * max(len(n) for n in col) for col in rows if col]
+        if sum(widths) <= 0.95 * width_in:
+            return cols
+    return 1
 
 
 def _empty(message: str):
@@ -136,20 +148,36 @@ def _datasets(items: Sequence[dict]) -> list[str]:
     return list(dict.fromkeys(r.get("data", "") for r in items))
 
 
+# tick mantissas on a log axis spanning less than two decades, finest first
+NICE = ((1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0), (1.0, 1.5, 2.0, 3.0, 5.0), (1.0, 2.0, 5.0),
+        (1.0, 3.0))
+MAX_TICKS = 7
+
+
 def _plain_log_axis(ax, times: Sequence[float]) -> None:
-    """Plain numbers on a log time axis (not 1.1x10^0, ...); minor ticks labelled only over a
-    narrow range, where there may be no major tick to read."""
-    from matplotlib.ticker import FuncFormatter, NullFormatter
+    """A log time axis with plain numbers (not 1.1x10^0, ...); over less than two decades, where
+    a log axis labels one or two ticks, ticks at the finest of 1, 1.2, 1.5, 2, ... x 10^k that
+    gives at most MAX_TICKS."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, NullLocator
 
     ax.set_xscale("log")
     plain = FuncFormatter(lambda v, _: f"{v:g}")
     ax.xaxis.set_major_formatter(plain)
+    ax.xaxis.set_minor_formatter(NullFormatter())
     times = [t for t in times if t > 0]
-    narrow = bool(times) and max(times) < 3 * min(times)
-    ax.xaxis.set_minor_formatter(plain if narrow else NullFormatter())
-    if times:
-        lo, hi = min(times), max(times)
-        ax.set_xlim(lo / 1.4, hi * 1.4)
+    if not times:
+        return
+    lo, hi = min(times) / 1.4, max(times) * 1.4
+    ax.set_xlim(lo, hi)
+    if hi >= 100 * lo:
+        return
+    decades = range(math.floor(math.log10(lo)), math.ceil(math.log10(hi)) + 1)
+    for mantissas in NICE:
+        ticks = [t for k in decades for m in mantissas if lo <= (t := float(f"{m * 10.0 ** k:.6g}")) <= hi]
+        if len(ticks) <= MAX_TICKS:
+            break
+    ax.xaxis.set_major_locator(FixedLocator(ticks))
+    ax.xaxis.set_minor_locator(NullLocator())
 
 
 def _oracle(values: Sequence[float | None]) -> float | None:
@@ -216,8 +244,10 @@ def frames_figure(runs: Sequence[dict]):
             curves = per_frame_matrix(rs)
             x = np.arange(curves.shape[1])
             c = style[n]["color"]
-            ax.plot(x, np.nanmean(curves, axis=0), color=c, lw=1.6, marker=style[n]["marker"],
-                    ms=4 if len(x) <= 40 else 0, label=n)
+            # hollow markers: curves that coincide (a hybrid that never called its APF and the
+            # local tracker) still show both
+            ax.plot(x, np.nanmean(curves, axis=0), color=c, lw=1.5, marker=style[n]["marker"],
+                    ms=6 if len(x) <= 40 else 0, mfc="none", mew=1.4, label=n)
             if len(rs) > 1:
                 ax.fill_between(x, np.nanmin(curves, axis=0), np.nanmax(curves, axis=0), color=c,
                                 alpha=0.18, lw=0)
