@@ -2,7 +2,7 @@
 anny's own skinning, exact silhouettes on the mpi08 ring at 500x500, ground-truth joints by
 HumanEva-15 name. Needs the build extra (bash scripts/install_build_deps.sh):
 
-    ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python mocap_build/make_mismatch.py --out data/mismatch
+    ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python -m mocap_build.make_mismatch --out data/mismatch
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ three phenotypes and three procedural motions (mocap_build/mismatch/procedural.p
 
 Rebuild with:  bash scripts/install_build_deps.sh
                ANNY_CACHE_DIR=~/.cache/anny \\
-                 .venv-build/bin/python mocap_build/make_mismatch.py --out data/mismatch
+                 .venv-build/bin/python -m mocap_build.make_mismatch --out data/mismatch
 
 The derived data is distributed under the Apache License 2.0; the licence text is in
 mocap/body/assets/LICENSE-anny-Apache-2.0.txt.
