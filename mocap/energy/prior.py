@@ -15,10 +15,11 @@ the particle weights; :mod:`mocap.energy.prior_eval` has the n-D normalised dens
 comparisons of likelihoods). Evaluated with log-sum-exp, so far-away poses give large finite
 energies, never inf or NaN.
 
-Priors come from two sources (:func:`prior_path`): ``procedural`` (poses of our procedural
-motion library, ``pose_prior_<body>.npz``) and ``real`` (retargeted real motion capture,
-``pose_prior_real_<body>.npz``, CC BY-NC 4.0 adapted material: its licence and attribution
-travel in the file, :class:`PriorProvenance`, and in ``NOTICE-pose_prior_real.txt`` beside it).
+Priors come from sources (:func:`prior_path`): ``procedural`` (poses of our procedural motion
+library, ``pose_prior_<body>.npz``), ``real`` and ``real-paper-sigma`` (retargeted real motion
+capture, ``pose_prior_real[_paper_sigma]_<body>.npz``, CC BY-NC 4.0 adapted material: its licence and
+attribution travel in the file, :class:`PriorProvenance`, and in ``NOTICE-pose_prior_real.txt``
+beside it; the two differ in sigma only).
 """
 
 from __future__ import annotations
@@ -37,7 +38,10 @@ PRIOR_FORMAT = "mocap-pose-prior-v2"
 #: the provenance as JSON under ``meta``)
 READABLE_FORMATS = ("mocap-pose-prior-v1", PRIOR_FORMAT)
 #: prior source -> asset file name in ``mocap/energy/assets`` ({body}: the body's name)
-PRIOR_SOURCES = {"procedural": "pose_prior_{body}.npz", "real": "pose_prior_real_{body}.npz"}
+#: "real": sigma by leave-one-motion-type-out likelihood; "real-paper-sigma": sigma by the paper's
+#: rule (max nearest-neighbour distance), the same samples (see docs/results/pose_prior.md)
+PRIOR_SOURCES = {"procedural": "pose_prior_{body}.npz", "real": "pose_prior_real_{body}.npz",
+                 "real-paper-sigma": "pose_prior_real_paper_sigma_{body}.npz"}
 #: above this many samples the squared distances use ||a||^2 + ||s||^2 - 2 a.s (one matrix
 #: product, ~5x faster at T = 2000); up to it the direct differences (exact; today's priors)
 _EXPANSION_MIN_SAMPLES = 1000
@@ -65,7 +69,8 @@ class PriorProvenance:
     motion_types: the motion types trained on; held_out_types: those kept out (the split's);
     clips: how many clips; clips_sha256: SHA-256 of the sorted ``name sha256`` lines of the
     clips; pool: poses available before selection; selection: how the T samples were chosen;
-    retarget: the retargeting version that made the poses; body: the body's name."""
+    retarget: the retargeting version that made the poses; body: the body's name; sigma_rule:
+    how sigma was chosen ("" = the paper's max nearest-neighbour distance)."""
 
     licence: str = ""
     motion_types: tuple[str, ...] = ()
@@ -76,6 +81,7 @@ class PriorProvenance:
     selection: str = ""
     retarget: str = ""
     body: str = ""
+    sigma_rule: str = ""
 
     def to_json(self) -> dict:
         return asdict(self)

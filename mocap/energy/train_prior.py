@@ -51,6 +51,10 @@ BANDAI_NAMCO_LICENCE = (
     "Research Inc., https://github.com/BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset; "
     "non-commercial use only")
 SELECTIONS = ("uniform", "farthest")
+#: sigma of the real prior: "paper" = max nearest-neighbour distance (Zhang et al. 2013);
+#: "loto" = the isotropic width with the best leave-one-motion-type-out likelihood
+SIGMA_RULES = ("paper", "loto")
+LOTO_SIGMAS = np.geomspace(0.05, 2.0, 33)
 
 
 @dataclass(frozen=True)
@@ -127,7 +131,9 @@ def retarget_version() -> str:
     """The retargeting's version: ``mocap.clips.retarget.RETARGET_VERSION`` if it has one, else a
     hash of the sources it depends on (retarget, fit, bvh, names and the name maps: any change
     re-retargets)."""
-    import mocap.clips.retarget as rt
+    import importlib
+
+    rt = importlib.import_module("mocap.clips.retarget")      # the module (the package exports its function)
 
     version = getattr(rt, "RETARGET_VERSION", None)
     if version is not None:
@@ -210,32 +216,47 @@ def select_samples(poses: np.ndarray, samples: int, selection: str = "uniform") 
 
 def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSplit | None = None,
                      samples: int = 2000, *, types: tuple[str, ...] | None = None,
-                     selection: str = "uniform", step: int = 1, cache_dir: str | Path | None = None,
+                     selection: str = "uniform", step: int = 1, sigma: str = "paper",
+                     cache_dir: str | Path | None = None,
                      retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None,
                      licence: str = BANDAI_NAMCO_LICENCE) -> ParzenPrior:
     """The Parzen prior (Eq. 15-16, sigma = max nearest-neighbour distance) on ``samples`` poses
     of real motion: every frame of the clips of the split's train types (or ``types``, which
     must be train types: a held-out type raises before any work), retargeted onto ``body``
     (every ``step``-th frame, cached per clip in ``cache_dir``), then ``samples`` of them chosen
-    by ``selection``."""
+    by ``selection``. ``sigma``: "paper" (max nearest-neighbour distance) or "loto" (the width
+    of ``LOTO_SIGMAS`` under which each training motion type is most probable given the others'
+    samples: the prior is for motion types it has not seen)."""
     split = split or read_split()
     types = tuple(types) if types is not None else split.train
     check_training_types(types, split)
     if selection not in SELECTIONS:
         raise ValueError(f"selection={selection!r}: allowed {', '.join(SELECTIONS)}")
+    if sigma not in SIGMA_RULES:
+        raise ValueError(f"sigma={sigma!r}: allowed {', '.join(SIGMA_RULES)}")
     entries = clip_entries(clips_folder, types)
     if not entries:
         raise ValueError(f"clips folder {clips_folder}: no clip of the motion types {', '.join(types)}")
     check_training_types(sorted({e.motion for e in entries}), split)
-    pool, _ = real_poses(entries, body, cache_dir, step, retarget_fn)
+    pool, groups = real_poses(entries, body, cache_dir, step, retarget_fn)
     pick = select_samples(pool, samples, selection)
+    prior = ParzenPrior.fit(pool[pick], body.dof_names[6:])
+    rule = ""
+    if sigma == "loto":
+        from mocap.energy.prior_eval import select_bandwidth_scale
+
+        motion = np.array([entries[g].motion for g in groups[pick]])
+        best, _ = select_bandwidth_scale(prior.samples, motion, 1.0, LOTO_SIGMAS)
+        rule = (f"leave-one-motion-type-out likelihood over {len(LOTO_SIGMAS)} widths "
+                f"{LOTO_SIGMAS[0]:g}-{LOTO_SIGMAS[-1]:g} rad (the paper's rule: {prior.sigma:.3f} rad)")
+        prior = ParzenPrior(prior.samples, prior.dof_names, best)
     version = (retarget_version() if retarget_fn is None else "custom") + f", every {step} frame(s)"
     prov = PriorProvenance(licence=licence, motion_types=tuple(sorted({e.motion for e in entries})),
                            held_out_types=split.held_out, clips=len(entries),
                            clips_sha256=clips_sha256(entries), pool=len(pool),
                            selection=f"{selection} ({len(pick)} of {len(pool)} frames)",
-                           retarget=version, body=body.name)
+                           retarget=version, body=body.name, sigma_rule=rule)
     source = (f"{len(pick)} poses of {len(entries)} real motion-capture clips "
               f"({split.dataset or Path(clips_folder).name}; types {', '.join(prov.motion_types)}) "
-              f"retargeted onto body '{body.name}'")
-    return ParzenPrior.fit(pool[pick], body.dof_names[6:], source=source, provenance=prov)
+              f"retargeted onto body '{body.name}'; sigma by the {sigma} rule")
+    return ParzenPrior(prior.samples, prior.dof_names, prior.sigma, source, prov)
