@@ -11,7 +11,7 @@ import csv
 import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import partial
+from functools import cache, partial
 from pathlib import Path
 
 import numpy as np
@@ -127,10 +127,12 @@ def clips_sha256(entries: list[ClipEntry]) -> str:
     return hashlib.sha256("\n".join(lines).encode()).hexdigest()
 
 
+@cache
 def retarget_version() -> str:
     """The retargeting's version: ``mocap.clips.retarget.RETARGET_VERSION`` if it has one, else a
     hash of the sources it depends on (retarget, fit, bvh, names and the name maps: any change
-    re-retargets)."""
+    re-retargets). Computed once per process, when the retargeting is imported, so that files
+    edited while a process runs cannot label results of the code it loaded."""
     import importlib
 
     rt = importlib.import_module("mocap.clips.retarget")      # the module (the package exports its function)

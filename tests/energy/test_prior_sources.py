@@ -1,0 +1,153 @@
+"""Pose prior sources, the asset's metadata, and the train/held-out split of the real prior."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocap.data.motion import generate_motion
+from mocap.energy.prior import PRIOR_FORMAT, ParzenPrior, PriorProvenance, default_prior_path, prior_path
+from mocap.energy.prior_eval import kde_log_density
+from mocap.energy.train_prior import (
+    BANDAI_NAMCO_LICENCE,
+    LOTO_SIGMAS,
+    MotionSplit,
+    check_training_types,
+    read_split,
+    select_samples,
+    train_real_prior,
+)
+
+SPLIT = read_split()
+
+
+def test_prior_path_sources_and_unknown_source():
+    assert prior_path("paper22", "procedural") == default_prior_path("paper22")
+    assert prior_path("paper22", "procedural").name == "pose_prior_paper22.npz"
+    assert prior_path("full", "real").name == "pose_prior_real_full.npz"
+    assert prior_path("paper22", "real-paper-sigma").name == "pose_prior_real_paper_sigma_paper22.npz"
+    assert prior_path("paper22", "real").parent == default_prior_path("paper22").parent
+    with pytest.raises(ValueError, match="source 'mocap': available procedural, real, real-paper-sigma"):
+        prior_path("paper22", "mocap")
+
+
+def test_procedural_assets_are_old_format_and_still_load():
+    for body in ("paper22", "full"):
+        with np.load(default_prior_path(body)) as z:
+            assert str(z["format"]) == "mocap-pose-prior-v1"
+        p = ParzenPrior.load(default_prior_path(body))
+        assert len(p.samples) == 100 and p.provenance == PriorProvenance()
+
+
+def test_metadata_round_trips_through_the_file(tmp_path):
+    rng = np.random.default_rng(0)
+    prov = PriorProvenance(licence=BANDAI_NAMCO_LICENCE, motion_types=("bow", "walk"),
+                           held_out_types=("punch",), clips=3, clips_sha256="ab" * 32, pool=50,
+                           selection="uniform (20 of 50 frames)", retarget="v1", body="paper22")
+    p = ParzenPrior.fit(rng.normal(size=(20, 4)), tuple("abcd"), source="test poses", provenance=prov)
+    back = ParzenPrior.load(p.save(tmp_path / "p.npz"))
+    assert back.provenance == prov and back.source == "test poses" and back.sigma == p.sigma
+    np.testing.assert_array_equal(back.samples, p.samples)
+    with np.load(tmp_path / "p.npz") as z:
+        assert str(z["format"]) == PRIOR_FORMAT
+        import json
+        meta = json.loads(str(z["meta"]))
+    assert meta["samples"] == 20 and meta["sigma"] == p.sigma and "non-commercial" in meta["licence"]
+
+
+@pytest.mark.parametrize("source", ["real", "real-paper-sigma"])
+def test_shipped_real_priors_carry_licence_and_no_held_out_type(source):
+    split = read_split()
+    for body in ("paper22", "full"):
+        path = prior_path(body, source)
+        if body == "full" and not path.is_file():
+            continue                        # paper22's is the one the trackers need
+        p = ParzenPrior.load(path)
+        prov = p.provenance
+        assert prov.licence == BANDAI_NAMCO_LICENCE and prov.body == body
+        assert prov.motion_types and not set(prov.motion_types) & set(split.held_out)
+        assert set(prov.motion_types) <= set(split.train)
+        assert tuple(prov.held_out_types) == split.held_out
+        assert prov.clips > 0 and len(prov.clips_sha256) == 64 and prov.pool >= len(p.samples)
+        assert (path.parent / "NOTICE-pose_prior_real.txt").is_file()
+
+
+def test_split_file_is_disjoint_and_the_leak_check_raises():
+    assert SPLIT.train and SPLIT.held_out and not set(SPLIT.train) & set(SPLIT.held_out)
+    check_training_types(SPLIT.train, SPLIT)
+    with pytest.raises(ValueError, match="punch are held out"):
+        check_training_types(("walk", "punch"), SPLIT)
+    with pytest.raises(ValueError, match="swim are not train types"):
+        check_training_types(("walk", "swim"), SPLIT)
+
+
+def test_training_with_a_held_out_type_raises_before_any_work(body, tmp_path):
+    def never(path, body):
+        raise AssertionError("retargeted a clip")
+
+    with pytest.raises(ValueError, match="byebye are held out"):
+        train_real_prior(tmp_path / "no-such-folder", body, types=("walk", "byebye"), retarget_fn=never)
+
+
+def _fake_clips(folder: Path, motions: list[str]) -> None:
+    """A clips folder with index.csv; each 'clip' file holds its motion name and take."""
+    folder.mkdir()
+    with (folder / "index.csv").open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["file", "motion"])
+        for i, m in enumerate(motions):
+            (folder / f"{m}_{i:03d}.bvh").write_text(f"{m} {i}\n")
+            w.writerow([f"{m}_{i:03d}.bvh", m])
+
+
+def test_real_prior_trains_on_train_types_only_and_caches_retargeting(body, tmp_path):
+    # stand-in data: procedural actions play the motion types; 'box' is held out here
+    split = MotionSplit(train=("walk", "jog"), held_out=("box",), dataset="fake")
+    _fake_clips(tmp_path / "clips", ["walk", "walk", "jog", "box"])
+    calls = []
+
+    def fake_retarget(path: Path, body):
+        motion, take = path.read_text().split()
+        calls.append(motion)
+        return generate_motion(body, motion, 30, seed=int(take), split="train").astype(np.float64)
+
+    p = train_real_prior(tmp_path / "clips", body, split, samples=40, cache_dir=tmp_path / "cache",
+                         retarget_fn=fake_retarget)
+    assert sorted(calls) == ["jog", "walk", "walk"]                       # box never read
+    assert len(p.samples) == 40 and p.dof_names == body.dof_names[6:]
+    assert p.provenance.motion_types == ("jog", "walk") and p.provenance.held_out_types == ("box",)
+    assert p.provenance.pool == 90 and p.provenance.clips == 3
+    again = train_real_prior(tmp_path / "clips", body, split, samples=40, cache_dir=tmp_path / "cache",
+                             retarget_fn=fake_retarget)
+    assert len(calls) == 3                                               # all from the cache
+    np.testing.assert_array_equal(again.samples, p.samples)
+    assert again.provenance.clips_sha256 == p.provenance.clips_sha256
+    (tmp_path / "clips" / "walk_000.bvh").write_text("walk 7\n")          # a changed clip
+    third = train_real_prior(tmp_path / "clips", body, split, samples=40, cache_dir=tmp_path / "cache",
+                             retarget_fn=fake_retarget)
+    assert len(calls) == 4 and third.provenance.clips_sha256 != p.provenance.clips_sha256
+    # sigma by leave-one-motion-type-out: the grid width under which walk best predicts jog and
+    # jog walk; the samples are the same as with the paper's rule
+    loto = train_real_prior(tmp_path / "clips", body, split, samples=40, sigma="loto",
+                            cache_dir=tmp_path / "cache", retarget_fn=fake_retarget)
+    np.testing.assert_array_equal(loto.samples, third.samples)
+    motion = np.array(["jog"] * 30 + ["walk"] * 60)[select_samples(np.zeros((90, 1)), 40)]
+    ll = [kde_log_density(loto.samples, loto.samples, s, motion, motion).mean() for s in LOTO_SIGMAS]
+    assert loto.sigma == LOTO_SIGMAS[int(np.argmax(ll))]
+    assert "leave-one-motion-type-out" in loto.provenance.sigma_rule
+    with pytest.raises(ValueError, match="sigma='median'"):
+        train_real_prior(tmp_path / "clips", body, split, sigma="median", retarget_fn=fake_retarget)
+
+
+def test_sample_selection_uniform_and_farthest():
+    pool = np.r_[np.zeros((50, 2)), np.ones((50, 2)), [[10.0, 10.0]]]
+    u = select_samples(pool, 11, "uniform")
+    np.testing.assert_array_equal(u, np.arange(0, 101, 10))
+    f = select_samples(pool, 3, "farthest")
+    assert set(map(tuple, pool[f])) == {(0.0, 0.0), (1.0, 1.0), (10.0, 10.0)}
+    np.testing.assert_array_equal(select_samples(pool, 500), np.arange(101))
+    with pytest.raises(ValueError, match="selection='random'"):
+        select_samples(pool, 3, "random")
