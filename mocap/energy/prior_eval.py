@@ -73,25 +73,38 @@ def silverman_bandwidth(samples: np.ndarray) -> np.ndarray:
 
 
 def select_bandwidth_scale(samples: np.ndarray, groups: np.ndarray, base: float | np.ndarray,
-                           scales: np.ndarray, queries: int = 2000,
+                           scales: np.ndarray, queries: int = 2000, floor: float = 0.0,
                            rng: np.random.Generator | None = None) -> tuple[float, np.ndarray]:
-    """The scale c of ``h = c * base`` with the highest leave-one-group-out mean log-likelihood
-    on (up to ``queries`` of) the training samples. samples: (T, n); groups: (T,) clip ids.
-    Returns (c, mean log-likelihood per scale (S,))."""
+    """The scale c of ``h = max(c * base, floor)`` with the highest leave-one-group-out mean
+    log-likelihood on (up to ``queries`` of) the training samples. samples: (T, n); groups: (T,)
+    clip ids. Returns (c, mean log-likelihood per scale (S,))."""
     rng = rng or np.random.default_rng(0)
     pick = np.arange(len(samples))
     if len(samples) > queries:
         pick = np.sort(rng.choice(len(samples), queries, replace=False))
     keep = np.array([np.any(groups != groups[i]) for i in pick])
     pick = pick[keep]
-    ll = np.array([kde_log_density(samples[pick], samples, c * np.asarray(base), groups[pick], groups).mean()
-                   for c in scales])
+    ll = np.array([kde_log_density(samples[pick], samples, min_bandwidth(c * np.asarray(base), floor),
+                                   groups[pick], groups).mean() for c in scales])
     return float(scales[int(np.argmax(ll))]), ll
 
 
 def min_bandwidth(bandwidth: np.ndarray, floor: float) -> np.ndarray:
     """Per-DOF bandwidths no narrower than ``floor`` (a DOF that barely moves in training)."""
     return np.maximum(np.asarray(bandwidth, np.float64), floor)
+
+
+def uniform_log_density(limits: np.ndarray) -> float:
+    """log of the uniform density within joint limits (n, 2) (radians)."""
+    return float(-np.log(np.diff(np.asarray(limits, np.float64), axis=1)).sum())
+
+
+def defensive_log_density(log_p: np.ndarray, log_u: float, eps: float) -> np.ndarray:
+    """log((1 - eps) p + eps u): a density mixed with a broad one (uniform within the limits)
+    so that no pose is far less probable than under ``u``. log_p: (N,) -> (N,)."""
+    if not 0.0 < eps < 1.0:
+        raise ValueError(f"eps={eps}: must be in (0, 1)")
+    return np.logaddexp(np.log1p(-eps) + np.asarray(log_p), np.log(eps) + log_u)
 
 
 def heldout_table(densities: Mapping[str, Callable[[np.ndarray], np.ndarray]],

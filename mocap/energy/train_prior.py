@@ -198,6 +198,29 @@ def real_poses(entries: list[ClipEntry], body: BodyModel, cache_dir: str | Path 
     return np.concatenate(poses), np.concatenate(groups)
 
 
+def observed_dofs(body: BodyModel, point_names: tuple[str, ...] | list[str], poses: int = 8,
+                  seed: int = 0, delta: float = 0.1) -> tuple[str, ...]:
+    """The joint-angle DOFs that move at least one of the named points (joints or catalogue
+    landmarks; the points a name map fits): a clip cannot tell the others (e.g. the wrists when
+    no hand end is mapped), so retargeting leaves them arbitrary and a prior must not learn them.
+    Checked at the rest pose and ``poses`` random poses within the limits."""
+    from mocap.clips.fit import PointFunction
+
+    fn = PointFunction(body, list(point_names))
+    lo, hi = np.asarray(body.limits, np.float64)[6:].T
+    chi = np.zeros((poses + 1, body.num_dofs))
+    chi[1:, 6:] = np.random.default_rng(seed).uniform(lo, hi, (poses, len(lo)))
+    alpha = np.zeros(body.num_shape)
+    base = fn(alpha, chi)
+    keep = []
+    for d in range(6, body.num_dofs):
+        moved = chi.copy()
+        moved[:, d] += np.where(moved[:, d] + delta <= hi[d - 6], delta, -delta)
+        if np.abs(fn(alpha, moved) - base).max() > 1e-6:
+            keep.append(body.dof_names[d])
+    return tuple(keep)
+
+
 def select_samples(poses: np.ndarray, samples: int, selection: str = "uniform") -> np.ndarray:
     """Indices of ``samples`` of the pool (N, n): ``uniform`` evenly spaced in the pool's order
     (its time order), ``farthest`` by farthest-point sampling from the first pose."""
@@ -219,7 +242,7 @@ def select_samples(poses: np.ndarray, samples: int, selection: str = "uniform") 
 def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSplit | None = None,
                      samples: int = 2000, *, types: tuple[str, ...] | None = None,
                      selection: str = "uniform", step: int = 1, sigma: str = "paper",
-                     cache_dir: str | Path | None = None,
+                     dofs: tuple[str, ...] | None = None, cache_dir: str | Path | None = None,
                      retarget_fn: Callable[[Path, BodyModel], np.ndarray] | None = None,
                      licence: str = BANDAI_NAMCO_LICENCE) -> ParzenPrior:
     """The Parzen prior (Eq. 15-16, sigma = max nearest-neighbour distance) on ``samples`` poses
@@ -228,7 +251,8 @@ def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSpl
     (every ``step``-th frame, cached per clip in ``cache_dir``), then ``samples`` of them chosen
     by ``selection``. ``sigma``: "paper" (max nearest-neighbour distance) or "loto" (the width
     of ``LOTO_SIGMAS`` under which each training motion type is most probable given the others'
-    samples: the prior is for motion types it has not seen)."""
+    samples: the prior is for motion types it has not seen). ``dofs``: the joint angles the prior
+    covers (None: all; see :func:`observed_dofs`)."""
     split = split or read_split()
     types = tuple(types) if types is not None else split.train
     check_training_types(types, split)
@@ -240,9 +264,14 @@ def train_real_prior(clips_folder: str | Path, body: BodyModel, split: MotionSpl
     if not entries:
         raise ValueError(f"clips folder {clips_folder}: no clip of the motion types {', '.join(types)}")
     check_training_types(sorted({e.motion for e in entries}), split)
+    names = tuple(body.dof_names[6:]) if dofs is None else tuple(dofs)
+    unknown = [d for d in names if d not in body.dof_names[6:]]
+    if unknown:
+        raise ValueError(f"dofs {', '.join(unknown)} are not joint angles of body {body.name!r}")
     pool, groups = real_poses(entries, body, cache_dir, step, retarget_fn)
+    pool = pool[:, [body.dof_names.index(d) - 6 for d in names]]
     pick = select_samples(pool, samples, selection)
-    prior = ParzenPrior.fit(pool[pick], body.dof_names[6:])
+    prior = ParzenPrior.fit(pool[pick], names)
     rule = ""
     if sigma == "loto":
         from mocap.energy.prior_eval import select_bandwidth_scale

@@ -9,12 +9,14 @@ from scipy.stats import multivariate_normal
 
 from mocap.energy.prior import ParzenPrior
 from mocap.energy.prior_eval import (
+    defensive_log_density,
     heldout_table,
     kde_log_density,
     parzen_log_density,
     scott_bandwidth,
     select_bandwidth_scale,
     silverman_bandwidth,
+    uniform_log_density,
 )
 
 
@@ -71,6 +73,16 @@ def test_bandwidth_rules_and_leave_one_clip_out_selection():
     assert 0.15 < c < 1.5 and ll.argmax() not in (0, len(scales) - 1)
     c_single, _ = select_bandwidth_scale(pts, np.arange(1000), 1.0, scales)
     assert c_single == scales[0]
+
+
+def test_uniform_and_defensive_mixture_densities():
+    limits = np.array([[-1.0, 1.0], [0.0, 0.5]])
+    assert uniform_log_density(limits) == pytest.approx(-np.log(2.0 * 0.5))
+    log_p = np.log(np.array([1e-300, 0.2, 3.0]))
+    got = defensive_log_density(log_p, np.log(0.5), 0.1)
+    np.testing.assert_allclose(np.exp(got), 0.9 * np.exp(log_p) + 0.1 * 0.5, rtol=1e-12)
+    with pytest.raises(ValueError, match="eps=1.0"):
+        defensive_log_density(log_p, 0.0, 1.0)
 
 
 def test_heldout_table_is_mean_log_likelihood_per_dof():

@@ -16,6 +16,7 @@ from mocap.energy.train_prior import (
     LOTO_SIGMAS,
     MotionSplit,
     check_training_types,
+    observed_dofs,
     read_split,
     select_samples,
     train_real_prior,
@@ -138,8 +139,26 @@ def test_real_prior_trains_on_train_types_only_and_caches_retargeting(body, tmp_
     ll = [kde_log_density(loto.samples, loto.samples, s, motion, motion).mean() for s in LOTO_SIGMAS]
     assert loto.sigma == LOTO_SIGMAS[int(np.argmax(ll))]
     assert "leave-one-motion-type-out" in loto.provenance.sigma_rule
+    sub = train_real_prior(tmp_path / "clips", body, split, samples=40, dofs=("l_knee_flex", "r_knee_flex"),
+                           cache_dir=tmp_path / "cache", retarget_fn=fake_retarget)
+    knees = [body.dof_names.index(d) - 6 for d in ("l_knee_flex", "r_knee_flex")]
+    np.testing.assert_array_equal(sub.samples, third.samples[:, knees])
+    with pytest.raises(ValueError, match="dofs l_wrist_flex are not joint angles"):
+        train_real_prior(tmp_path / "clips", body, split, dofs=("l_wrist_flex",), retarget_fn=fake_retarget)
     with pytest.raises(ValueError, match="sigma='median'"):
         train_real_prior(tmp_path / "clips", body, split, sigma="median", retarget_fn=fake_retarget)
+
+
+def test_observed_dofs_are_those_that_move_a_fitted_point(body_full):
+    bandai = ("pelvis", "neck_base", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow", "r_wrist",
+              "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle")
+    got = observed_dofs(body_full, bandai)
+    unseen = {d for d in body_full.dof_names[6:] if d.startswith("neck_") or "_wrist_" in d or "_ankle_" in d}
+    assert set(got) == set(body_full.dof_names[6:]) - unseen
+    # without the left elbow and wrist, nothing sees the left shoulder's three angles or the elbow
+    no_left_arm = observed_dofs(body_full, [p for p in bandai if p not in ("l_elbow", "l_wrist")])
+    assert set(got) - set(no_left_arm) == {"l_shoulder_flex", "l_shoulder_abd", "l_shoulder_rot",
+                                           "l_elbow_flex"}
 
 
 def test_sample_selection_uniform_and_farthest():
