@@ -84,7 +84,8 @@ def energy_seconds(prior: ParzenPrior, body, poses: np.ndarray, particles: int =
     """Median seconds of the pose prior E_P (limits + Parzen) for ``particles`` particles."""
     pp = PosePrior(body.dof_names, body.limits, prior)
     chi = np.zeros((particles, body.num_dofs))
-    chi[:, 6:] = poses[np.linspace(0, len(poses) - 1, particles).astype(int)]
+    chi[:, [body.dof_names.index(d) for d in prior.dof_names]] = poses[np.linspace(0, len(poses) - 1,
+                                                                                   particles).astype(int)]
     times = []
     for _ in range(repeats):
         t = time.perf_counter()
