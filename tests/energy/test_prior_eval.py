@@ -93,3 +93,15 @@ def test_heldout_table_is_mean_log_likelihood_per_dof():
     for k in ("a", "b"):
         assert t[k]["std"] == pytest.approx(dens["std"](poses[k]).mean() / 3)
     assert t["all"]["std"] == pytest.approx(dens["std"](np.r_[poses["a"], poses["b"]]).mean() / 3)
+
+
+def test_parzen_energy_with_many_samples_equals_the_direct_sum():
+    # above 1000 samples the squared distances come from one matrix product
+    rng = np.random.default_rng(5)
+    s, x = rng.normal(size=(1500, 16)) * 0.5, rng.normal(size=(25, 16)) * 0.5
+    prior = ParzenPrior(s, tuple(map(str, range(16))), 0.3)
+    d2 = cdist(x, s, "sqeuclidean")
+    direct = -(np.log(np.exp(-d2 / (2 * 0.3**2)).sum(1)) - np.log(np.sqrt(2 * np.pi) * 0.3 * len(s)))
+    np.testing.assert_allclose(prior.squared_distances(x), d2, atol=1e-12)
+    np.testing.assert_allclose(prior.energy(x), direct, rtol=1e-10)
+    np.testing.assert_allclose(np.diag(prior.squared_distances(s[:3])), 0.0, atol=1e-12)   # never < 0
