@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "recovery": ("recovery", "track with injected failures and measure the recovery (Hydra)"),
     "rescore": ("rescore", "re-score finished runs with today's evaluation, without tracking again"),
     "gt-from-joints": ("gt_from_joints", "add ground truth to a sequence folder from named 3D joints"),
+    "import-motion": ("import_motion", "retarget a BVH clip onto the body: a run's motion.npz"),
     "train-prior": ("train_prior", "train the Parzen pose prior on the training motions"),
     "build-body-model": ("build_body_model", "build the PCA body model from a database of bodies"),
     "show-body": ("show_body", "show the body model: mean, shape components, poses (recording + PNG)"),
