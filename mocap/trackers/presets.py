@@ -2,7 +2,8 @@
 preset's differences applied) and the function that builds the tracker from it.
 
 ``mocap_cli/conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
-differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``);
+differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``, ``apf_prior_real``
+``apf_prior``; ``hybrid_prior`` composes ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``);
 ``tests/trackers/test_settings.py`` checks that both give the same settings.
 """
 
@@ -31,15 +32,29 @@ SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSe
                                      "hybrid": HybridSettings, "marker_apf": MarkerSettings}
 
 _APF_25X10 = replace(APFTrackerSettings(), particles=25, layers=10)
+_APF_PRIOR = replace(_APF_25X10, energy=replace(_APF_25X10.energy, prior=1.0))
+_HYBRID_APF = HybridSettings().apf
+_HYBRID_PRIOR = replace(HybridSettings(),
+                        apf=replace(_HYBRID_APF, energy=replace(_HYBRID_APF.energy, prior=1.0)))
+
+
+def _real(prior):
+    """``prior`` (PriorSettings) reading the prior learned from real motion capture."""
+    return replace(prior, prior_source="real")
+
 
 #: name -> preset
 PRESETS: dict[str, Preset] = {
     "apf": Preset(factory.build_apf_tracker, APFTrackerSettings()),
     "apf_25x10": Preset(factory.build_apf_tracker, _APF_25X10),
-    "apf_prior": Preset(factory.build_apf_tracker,
-                        replace(_APF_25X10, energy=replace(_APF_25X10.energy, prior=1.0))),
+    "apf_prior": Preset(factory.build_apf_tracker, _APF_PRIOR),
+    "apf_prior_real": Preset(factory.build_apf_tracker, replace(_APF_PRIOR, prior=_real(_APF_PRIOR.prior))),
     "local": Preset(factory.build_local_tracker, LocalSettings()),
     "hybrid": Preset(factory.build_hybrid_tracker, HybridSettings()),
+    "hybrid_prior": Preset(factory.build_hybrid_tracker, _HYBRID_PRIOR),
+    "hybrid_prior_real": Preset(factory.build_hybrid_tracker,
+                                replace(_HYBRID_PRIOR, apf=replace(_HYBRID_PRIOR.apf,
+                                                                   prior=_real(_HYBRID_PRIOR.apf.prior)))),
     "marker_apf": Preset(factory.build_marker_tracker, MarkerSettings()),
 }
 

@@ -1,4 +1,6 @@
-"""``mocap ablate``: collect a sweep's metrics.json files into ablation.md, ablation.csv and ablation.png.
+"""``mocap ablate``: collect a sweep's metrics.json files into ablation.md, ablation.csv,
+ablation.png (error against time per frame, per dataset, the oracle as a line) and
+ablation_frames.png (each run's error per frame).
 
     mocap ablate multirun/<sweep dir> [--out DIR] [--title TEXT]
 
@@ -34,9 +36,10 @@ def main(argv: list[str] | None = None) -> int:
     (out / "ablation.md").write_text(md)
     write_csv(rows, out / "ablation.csv")
     if rows:
-        plot(rows, out / "ablation.png")
+        plot(rows, out / "ablation.png", runs=got.runs)
     print(md)
-    print(f"wrote {out / 'ablation.md'}, ablation.csv" + (", ablation.png" if rows else ""))
+    print(f"wrote {out / 'ablation.md'}, ablation.csv"
+          + (", ablation.png (error against time), ablation_frames.png (error per frame)" if rows else ""))
     if not rows or (args.strict and got.problems):
         return 1
     return 0

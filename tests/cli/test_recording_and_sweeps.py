@@ -94,6 +94,7 @@ def test_multirun_two_trackers_two_seeds_then_resume_and_ablate(tmp_path):
     assert "| apf |" in md and "| apf_prior |" in md
     assert str(runs[1]) in md and "unreadable metrics.json" in md
     assert (sweep / "ablation.csv").is_file() and (sweep / "ablation.png").is_file()
+    assert (sweep / "ablation_frames.png").is_file()
 
 
 def test_missing_data_path_fails_before_any_work(tmp_path):

@@ -170,3 +170,21 @@ def test_sample_selection_uniform_and_farthest():
     np.testing.assert_array_equal(select_samples(pool, 500), np.arange(101))
     with pytest.raises(ValueError, match="selection='random'"):
         select_samples(pool, 3, "random")
+
+
+def test_real_presets_read_the_real_prior(body):
+    """apf_prior_real and hybrid_prior_real evaluate E_P with the prior shipped from real motion
+    (its samples, not the procedural ones); apf_prior and hybrid_prior with the procedural one;
+    the hybrid without a prior has none."""
+    from mocap.cameras import ring_rig
+    from mocap.trackers.presets import make_tracker
+
+    rig = ring_rig(4, 3.5, 1.5, 160, 120, fov_deg=45, look_at=(0, 0, 0.9))
+    real = ParzenPrior.load(prior_path(body.name, "real")).samples
+    procedural = ParzenPrior.load(prior_path(body.name, "procedural")).samples
+    assert real.shape != procedural.shape or not np.array_equal(real, procedural)
+    for name, want in [("apf_prior_real", real), ("apf_prior", procedural),
+                       ("hybrid_prior_real", real), ("hybrid_prior", procedural)]:
+        tracker = make_tracker(name, body=body, rig=rig, rng=np.random.default_rng(0))
+        np.testing.assert_array_equal(tracker.prior.parzen.samples, want, err_msg=name)
+    assert make_tracker("hybrid", body=body, rig=rig, rng=np.random.default_rng(0)).prior is None
