@@ -35,3 +35,16 @@ def data_dir() -> str:
 # ${mocap_data:} in conf/data/*.yaml: registered wherever mocap_cli is imported (also in the
 # workers of a --multirun, which import the task function's module)
 OmegaConf.register_new_resolver("mocap_data", data_dir, replace=True)
+
+
+def run_hash(override_dirname: str = "") -> str:
+    """A short hash naming a run directory by content: of the job's overrides other than
+    tracker, data and seed (Hydra's ``hydra.job.override_dirname``, sorted, with those keys
+    excluded in conf/tracking.yaml), so the same job gets the same folder in any sweep order."""
+    import hashlib
+
+    return hashlib.sha256(str(override_dirname).encode()).hexdigest()[:8]
+
+
+# ${run_hash:${hydra.job.override_dirname}} in conf/tracking.yaml's sweep subdir
+OmegaConf.register_new_resolver("run_hash", run_hash, replace=True)

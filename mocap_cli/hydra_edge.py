@@ -138,4 +138,5 @@ def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> di
         make_body=lambda: build(cfg.body),
         make_sequence=make_sequence,
         make_tracker=lambda **objects: build(cfg.tracker, **objects),
-        parallel_jobs=parallel_jobs(), source=source_checkout(), wrap=wrap, extra=extra)
+        parallel_jobs=parallel_jobs(), source=source_checkout(), wrap=wrap, extra=extra,
+        overrides=list(HydraConfig.get().overrides.task))

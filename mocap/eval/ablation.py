@@ -80,11 +80,17 @@ def _motion_metrics(run_dir: Path) -> dict:
             if bones else float("nan"), "jitter_mm": jitter_mm(X)}
 
 
-def collect(sweep_dir: str | Path) -> Collected:
-    """Every run under ``sweep_dir`` (a directory holding .hydra/); runs without a readable
-    metrics.json, and runs whose joint error is NaN, are reported as problems, never dropped
-    silently or averaged. Runs without ground truth keep their own metrics (reprojection,
-    bone-length stability, jitter; the last two from motion.npz when metrics.json lacks them)."""
+def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
+    """Every run under ``sweep_dir`` (a directory holding .hydra/); runs that are not complete
+    (no valid manifest.json, :mod:`mocap.run_folder.manifest`; unless ``require_manifest`` is
+    False), runs without a readable metrics.json, and runs whose joint error is NaN, are
+    reported as problems, never dropped silently or averaged. Runs without ground truth keep
+    their own metrics (reprojection, bone-length stability, jitter; the last two from
+    motion.npz when metrics.json lacks them). Runs are labelled from the configuration that
+    ran (metrics.json's ``"config"``); a row holding runs of different configurations or the
+    same seed twice (a sweep folder that mixes configs) is reported too (:func:`mixed_rows`)."""
+    from mocap.run_folder.manifest import manifest_problem
+
     sweep_dir = Path(sweep_dir)
     if not sweep_dir.is_dir():
         raise FileNotFoundError(f"sweep directory not found: {sweep_dir}")
@@ -92,6 +98,10 @@ def collect(sweep_dir: str | Path) -> Collected:
     run_dirs = sorted({p.parent for p in sweep_dir.rglob(".hydra")})
     for d in run_dirs:
         m = d / "metrics.json"
+        problem = manifest_problem(d) if require_manifest else None
+        if problem is not None and m.is_file():
+            problems.append((str(d), f"not a complete run ({problem}); not in the table"))
+            continue
         if not m.is_file():
             failed = (d / "recording.failed.rrd").is_file()
             problems.append((str(d), "failed (recording.failed.rrd, no metrics.json)" if failed
@@ -117,7 +127,58 @@ def collect(sweep_dir: str | Path) -> Collected:
     if expected is not None and expected > len(run_dirs):
         problems.append((str(sweep_dir), f"{expected - len(run_dirs)} of {expected} jobs have no "
                                          "run directory (never started)"))
+    problems += mixed_rows(runs)
     return Collected(runs, problems)
+
+
+#: config keys that do not make two runs of one row different (bookkeeping, output, seed)
+SAME_RUN_KEYS = ("seed", "skip_complete", "resume_on_change", "recording", "motion", "threads", "hydra")
+
+
+def _flat(config, prefix: str = "") -> dict:
+    if isinstance(config, dict):
+        out = {}
+        for k, v in config.items():
+            out.update(_flat(v, f"{prefix}{k}."))
+        return out
+    return {prefix.rstrip("."): config}
+
+
+def _seed(run: dict):
+    """The seed a run ran with (metrics.json, its config, else its seed= override; None)."""
+    if "seed" in run:
+        return run["seed"]
+    if "seed" in (run.get("config") or {}):
+        return run["config"]["seed"]
+    kv = dict(o.split("=", 1) for o in run.get("_overrides", []) if "=" in o)
+    return kv.get("seed")
+
+
+def seed_count(rs: list[dict]) -> int:
+    """Seeds of a row: distinct seeds of its runs (a run of unknown seed counts as one)."""
+    seeds = [_seed(r) for r in rs]
+    return len({str(s) for s in seeds if s is not None}) + sum(s is None for s in seeds)
+
+
+def mixed_rows(runs: list[dict]) -> list[tuple[str, str]]:
+    """Rows of the table whose runs are not seeds of one configuration: configs that differ
+    in keys other than the seed and bookkeeping, or one seed twice."""
+    problems = []
+    for key, rs in group_runs(runs).items():
+        label = " ".join(str(k) for k in key)
+        seeds = [_seed(r) for r in rs]
+        repeated = sorted({str(s) for s in seeds if s is not None and seeds.count(s) > 1})
+        if repeated:
+            problems.append((label, f"this row holds seed(s) {', '.join(repeated)} more than once: "
+                                    "the sweep folder mixes configs (counted once each)"))
+        flats = [_flat({k: v for k, v in (r.get("config") or {}).items() if k not in SAME_RUN_KEYS})
+                 for r in rs if isinstance(r.get("config"), dict)]
+        differ = sorted({k for f in flats for k in set(f) | set(flats[0]) if f.get(k) != flats[0].get(k)})
+        if differ:
+            problems.append((label, f"this row's runs have different configs (differ in: "
+                                    f"{', '.join(differ[:6])}{' ...' if len(differ) > 6 else ''}): "
+                                    "the sweep folder mixes configs"))
+    return problems
 
 
 IGNORED_OVERRIDES = ("seed", "hydra.", "skip_complete", "recording.")
@@ -135,11 +196,21 @@ def varying_overrides(runs: list[dict]) -> list[str]:
                   and not any(k == p or k.startswith(p) for p in IGNORED_OVERRIDES))
 
 
+def _value(run: dict, key: str, kv: dict) -> str:
+    """The value of an override key in the config that ran (metrics.json's "config"), else the
+    override as written (a refused re-run may have left another value in overrides.yaml)."""
+    flat = _flat(run.get("config")) if isinstance(run.get("config"), dict) else {}
+    if key.lstrip("+~") in flat:
+        v = flat[key.lstrip("+~")]
+        return "null" if v is None else str(v).lower() if isinstance(v, bool) else str(v)
+    return kv.get(key, "-")
+
+
 def _key(run: dict, varying: list[str]) -> tuple:
     P, L = run.get("particles", 0), run.get("layers", 0)
     budget = f"{P}x{L}" if P else "-"
     kv = dict(o.split("=", 1) for o in run.get("_overrides", []) if "=" in o)
-    extra = " ".join(f"{k}={kv.get(k, '-')}" for k in varying if k not in ("tracker", "data"))
+    extra = " ".join(f"{k}={_value(run, k, kv)}" for k in varying if k not in ("tracker", "data"))
     return (run["tracker"], run.get("data", ""), extra or "-", budget,
             "+".join(run.get("energy_terms", [])) or "-")
 
@@ -165,7 +236,7 @@ def table_rows(runs: list[dict]) -> list[dict]:
     rows = []
     for (tracker, data, overrides, budget, terms), rs in group_runs(runs).items():
         row = {"tracker": tracker, "data": data, "overrides": overrides, "particles_x_layers": budget,
-               "energy_terms": terms, "seeds": len(rs),
+               "energy_terms": terms, "seeds": seed_count(rs),
                "sec_per_frame": float(np.mean([r["sec_per_frame"] for r in rs])),
                "energy_evals_per_frame": float(np.mean([r.get("energy_evals_per_frame", 0) for r in rs]))}
         if all("mpjpe_mm" in r for r in rs):

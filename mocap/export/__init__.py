@@ -10,20 +10,34 @@ FORMATS = {"bvh": ".bvh", "trc": ".trc", "gltf": ".glb", "c3d": ".c3d"}
 
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
-               overwrite: bool = False, body=None, markers: str = "landmarks") -> Path:
+               overwrite: bool = False, body=None, markers: str = "landmarks",
+               require_manifest: bool = True) -> Path:
     """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
     ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
     (its ``metrics.json``). ``markers`` (TRC, C3D): landmarks (the body's default set),
     joints, or tracker (a marker tracker's own landmarks). Written to a temporary file and
-    renamed; an existing output is kept unless ``overwrite``."""
+    renamed; an existing output is kept unless ``overwrite``. The run folder must be a
+    complete run (a valid manifest.json, :mod:`mocap.run_folder.manifest`) unless
+    ``require_manifest`` is False; the output path is checked (its folder exists, its suffix
+    is the format's) before any work."""
     from mocap.export.motion import load_motion
+    from mocap.run_folder.manifest import require_complete
 
     if fmt not in FORMATS:
         raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
     run_dir = Path(run_dir)
     if not (run_dir / "motion.npz").is_file():
         raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")
+    if require_manifest:
+        require_complete(run_dir)
     out = Path(out) if out is not None else run_dir / f"motion{FORMATS[fmt]}"
+    if not out.parent.is_dir():
+        raise FileNotFoundError(f"output {out}: folder {out.parent} does not exist")
+    if out.suffix.lower() != FORMATS[fmt]:
+        raise ValueError(f"output {out}: a {fmt} export is written to a {FORMATS[fmt]} file, "
+                         f"not {out.suffix or 'a name without suffix'}")
+    if out.is_dir():
+        raise ValueError(f"output {out} is a folder, not a {FORMATS[fmt]} file")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
     motion = load_motion(run_dir / "motion.npz")

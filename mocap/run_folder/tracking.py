@@ -1,25 +1,37 @@
 """The run behind every tracking command (``mocap track``, ``mocap recovery``, ``mocap
 video-check``): resume check, body / data / tracker from their factories, initial pose, the
 frame loop (:func:`mocap.trackers.run.track_sequence`) into the recording sink, then
-motion.npz, metrics.json and recording.rrd in the run directory. Commands differ only in
+motion.npz, metrics.json and recording.rrd in the run directory, in that order (the motion is
+kept when the recording fails), and last ``manifest.json`` (their sizes and checksums,
+:mod:`mocap.run_folder.manifest`): without it the folder is not a complete run. Commands differ only in
 the tracker they step (``wrap``) and the metrics they add (``extra``).
 
 The run's settings are read from ``config``, the resolved configuration as plain values (what
 metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents the keys):
 
-    seed, frames, threads            the data/tracker seed, frames to track (None: all), thread budget
+    seed, frames, threads            the data/tracker seed (an int >= 0), frames to track (an int
+                                     >= 1, at most the data's; None or "all": all), thread budget
     init.mode                        gt_noise (ground truth + noise) | tracker (self-initialised)
     init.noise_deg, init.noise_translation, init.cache
     recording.*                      keyword arguments of :func:`mocap.recording.factory.make_sink`
     motion.vertices                  keep the posed mesh per frame in motion.npz
     skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.eval.resume`)
+
+Settings are checked before any work (:func:`check_settings`). A re-run moves an earlier
+complete run into ``previous_run/`` first, and removes it only when the new run is complete;
+SIGTERM is handled like SIGINT (the recording is closed as ``recording.failed.rrd``, no
+manifest is written). After a SIGKILL the next run removes the ``recording.rrd.part`` left
+behind (a killed recording does not verify) and starts again.
 """
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -30,12 +42,20 @@ from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.quality import quality_flags
-from mocap.eval.resume import clear_outputs, config_changes, restore_stored_config, run_state
+from mocap.eval.resume import (
+    config_changes,
+    drop_previous,
+    restore_previous,
+    restore_stored_config,
+    run_state,
+    set_aside,
+)
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
+from mocap.run_folder.manifest import manifest_problem, write_manifest
 from mocap.run_folder.read import write_json
 from mocap.threads import resolve_threads
 from mocap.trackers.base import Tracker
@@ -54,6 +74,43 @@ class RunDirectoryConflict(FileExistsError):
     """The run directory holds the results of another configuration (resume_on_change=fail)."""
 
 
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def check_settings(config: Mapping) -> int | None:
+    """The run's own settings, checked before any work; returns the frames to track (None:
+    all). Each error names the setting, its value and what is allowed."""
+    seed = config.get("seed", 0)
+    if not _is_int(seed) or seed < 0:
+        raise ValueError(f"setting seed = {seed!r} is not allowed (an integer >= 0)")
+    frames = config.get("frames")
+    if frames is None or frames == "all":
+        return None
+    if not _is_int(frames) or frames < 1:
+        raise ValueError(f"setting frames = {frames!r} is out of range (an integer >= 1, or all / null "
+                         "for every frame of the data)")
+    return int(frames)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM raises KeyboardInterrupt (as SIGINT does), so a terminated run cleans up the
+    same way; only in the main thread (where signal handlers can be set)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"terminated (signal {signum})")
+
+    old = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def config_text(config: Mapping) -> str:
     """The configuration as the YAML text a recording stores (and its hash is taken of)."""
     return yaml.dump(dict(config), default_flow_style=False, allow_unicode=True, sort_keys=False)
@@ -64,7 +121,8 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
                  make_sequence: Callable[[BodyModel], Sequence],
                  make_tracker: Callable[..., Tracker],
                  parallel_jobs: int = 1, source: Path | None = None,
-                 wrap: Wrap | None = None, extra: Extra | None = None) -> dict | None:
+                 wrap: Wrap | None = None, extra: Extra | None = None,
+                 overrides: list[str] | None = None) -> dict | None:
     """Track the sequence with the tracker into ``out_dir``; returns the metrics written to
     metrics.json (None: skipped, already complete).
 
@@ -76,28 +134,59 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
     run's metadata records (None: not recorded). wrap(tracker, body, seq): the tracker to step
     instead (it initialises and steps the given one; name, search budget and start-up flags
     are still the given tracker's). extra(metrics, result, body, seq): more metrics.
+    overrides: the command line's overrides, kept in the manifest (the labels of the run).
     """
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    config = dict(config)
+    with _sigterm_as_interrupt():
+        return _run(Path(out_dir), dict(config), make_body, make_sequence, make_tracker, parallel_jobs,
+                    source, wrap, extra, overrides)
+
+
+def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs, source, wrap, extra,
+         overrides):
+    frames = check_settings(config)
     init_cfg = dict(config.get("init") or {})
     mode = init_cfg.get("mode", "gt_noise")
     if mode not in INIT_MODES:
         raise ValueError(f"init.mode must be one of {INIT_MODES}, got {mode!r}")
     rec_cfg = dict(config.get("recording") or {})
+    recording = bool(rec_cfg.get("enabled", True))
     seed = int(config.get("seed", 0))
-    state = run_state(out_dir, config, bool(rec_cfg.get("enabled", True)))
-    if config.get("skip_complete", False) and state == "complete":
-        print(f"skipping {out_dir}: already complete")
-        return None
+    threads = resolve_threads(config.get("threads", "auto"), parallel_jobs)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    state = run_state(out_dir, config, recording, threads)
+    if config.get("skip_complete", False):
+        if state == "complete":
+            print(f"skipping {out_dir}: already complete")
+            return None
+        if restore_previous(out_dir, config, recording, threads):
+            print(f"skipping {out_dir}: already complete (the run kept in previous_run/ restored)")
+            return None
     if state == "changed" and config.get("resume_on_change", "rerun") == "fail":
         restore_stored_config(out_dir)      # Hydra has just overwritten it with the new one
-        changed = ", ".join(config_changes(out_dir, config))
+        changed = ", ".join(config_changes(out_dir, config, threads))
         raise RunDirectoryConflict(f"{out_dir} holds a run of another configuration (changed: {changed}); "
                                    "resume_on_change=rerun reruns it")
-    clear_outputs(out_dir)          # nothing of an earlier attempt may describe this run
+    if state == "corrupt":
+        print(f"{out_dir}: {manifest_problem(out_dir)}: running it again", file=sys.stderr)
+    try:
+        prepared = _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence,
+                            make_tracker, wrap)
+    except BaseException:
+        if state in ("complete", "changed"):
+            restore_stored_config(out_dir)      # refused before any work: the old run stays as it was
+        raise
+    for note in set_aside(out_dir):     # nothing of an earlier attempt may describe this run
+        print(note, file=sys.stderr)
+    return _track(out_dir, config, prepared, rec_cfg, recording, seed, threads, source, extra, overrides)
+
+
+def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence, make_tracker, wrap):
+    """Body, data, tracker and initial pose, every check before the run directory is touched."""
     body = make_body()
     seq = make_sequence(body)
+    if frames is not None and frames > seq.num_frames:
+        raise ValueError(f"setting frames = {frames} is beyond the data: {seq.name!r} has {seq.num_frames} "
+                         "frames (frames=all or frames=null tracks every frame)")
     if (seq.gt is None or seq.gt.chi is None) and mode == "gt_noise":
         raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
     rng = np.random.default_rng(seed)
@@ -119,8 +208,12 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
                                   init_cfg["noise_translation"])
         alpha = seq.gt.alpha
     stepped = wrap(tracker, body, seq) if wrap is not None else tracker
-    frames = config.get("frames")
-    F = seq.num_frames if frames is None else min(int(frames), seq.num_frames)
+    F = seq.num_frames if frames is None else frames
+    return body, seq, tracker, stepped, scorer, init, alpha, init_info, F
+
+
+def _track(out_dir, config, prepared, rec_cfg, recording, seed, threads, source, extra, overrides):
+    body, seq, tracker, stepped, scorer, init, alpha, init_info, F = prepared
     text = config_text(config)
     sink = make_sink(out_dir, **rec_cfg)
     metadata = run_metadata(text, source, seed, tracker=tracker.name, data=seq.name)
@@ -143,7 +236,6 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
         recording_seconds[0] += time.perf_counter() - t
         bar.update(1)
 
-    threads = resolve_threads(config.get("threads", "auto"), parallel_jobs)
     t0 = time.perf_counter()
     try:
         with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
@@ -167,19 +259,30 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
         metrics["quality"] = quality_flags(body, result.estimates[-1].alpha, result.estimates,
                                            float(np.linalg.norm(seq.rig.sizes, axis=1).max()),
                                            extra_flags=getattr(tracker, "start_up_flags", ()))
+        if seq.meta.get("dropped_nonfinite"):        # data.nonfinite=drop: what was left out
+            metrics["dropped_nonfinite"] = seq.meta["dropped_nonfinite"]
         if extra is not None:
             metrics.update(extra(metrics, result, body, seq))
-    except BaseException:
+        for flag in metrics["quality"]["flags"]:
+            print(f"WARNING: {flag}", file=sys.stderr)
+        # the motion first (kept when the recording fails), then the metrics, the recording,
+        # and last the manifest that makes the folder a complete run
+        vertices = bool((config.get("motion") or {}).get("vertices"))
+        write_motion(out_dir / "motion.npz", motion_arrays(
+            body, result.estimates, result.seconds, seq.fps, vertices=vertices,
+            info={"tracker": tracker.name, "data": seq.name, "seed": seed, "run_id": run_id}))
+        write_json(out_dir / "metrics.json", metrics)
+        sink.finish(metrics)
+        write_manifest(out_dir, ["motion.npz", "metrics.json", *(["recording.rrd"] if recording else [])],
+                       overrides)
+    except BaseException as exc:
         sink.finish(None, failed=True)
+        kept = (" (the earlier complete run is kept in previous_run/)"
+                if (out_dir / "previous_run").is_dir() else "")
+        print(f"{out_dir}: not complete, no manifest.json written ({type(exc).__name__}){kept}",
+              file=sys.stderr)
         raise
-    for flag in metrics["quality"]["flags"]:
-        print(f"WARNING: {flag}", file=sys.stderr)
-    sink.finish(metrics)
-    vertices = bool((config.get("motion") or {}).get("vertices"))
-    write_motion(out_dir / "motion.npz", motion_arrays(
-        body, result.estimates, result.seconds, seq.fps, vertices=vertices,
-        info={"tracker": tracker.name, "data": seq.name, "seed": seed, "run_id": run_id}))
-    write_json(out_dir / "metrics.json", metrics)
+    drop_previous(out_dir)
     accuracy = (f"MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
                 if "mpjpe_mm" in metrics else "")
     print(f"{tracker.name}: {accuracy}{metrics['sec_per_frame']:.2f} s/frame -> {out_dir}")

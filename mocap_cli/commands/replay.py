@@ -1,6 +1,8 @@
 """``mocap replay``: review a run: open its recording in the Rerun viewer where a display exists, otherwise
 print a headless summary (frames, entities, final metrics) read from the file itself, and the
-run's motion.npz (frames, APF calls, misaligned limbs) when the run directory has one.
+run's motion.npz (frames, APF calls, misaligned limbs) when the run directory has one. A run
+directory that is not a complete run (no valid manifest.json) is flagged: a WARNING line,
+the summary of what is there (e.g. recording.failed.rrd), and exit status 1.
 
     mocap replay outputs/track/<run>            # a run directory
     mocap replay path/to/recording.rrd [--summary]
@@ -36,6 +38,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--summary", action="store_true", help="print the summary, never open a viewer")
     args = p.parse_args(argv)
     rrd = find_recording(args.target)
+    problem = None
+    if args.target.is_dir():
+        from mocap.run_folder.manifest import manifest_problem
+
+        problem = manifest_problem(args.target)
+        if problem is not None:
+            print(f"WARNING: {args.target}: not a complete run ({problem}); {rrd.name} is not a finished "
+                  "run's recording", file=sys.stderr)
     has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
     viewer = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
     if has_display and not args.summary and Path(viewer).exists():
@@ -50,5 +60,5 @@ def main(argv: list[str] | None = None) -> int:
             print(motion_summary(load_motion(motion)))
         except MotionFileError as exc:
             print(f"motion.npz unreadable: {exc}")
-    return 0
+    return 1 if problem is not None else 0
 

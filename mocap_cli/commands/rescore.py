@@ -23,6 +23,7 @@ from pathlib import Path
 from mocap.eval.run_metrics import accuracy_metrics
 from mocap.export.motion import load_motion
 from mocap.run_folder import run_body, run_sequence, write_json
+from mocap.run_folder.manifest import PREVIOUS, read_manifest, require_complete, write_manifest
 from mocap_cli import source_checkout
 
 SUMMARY = ("mpjpe_mm", "frames_lost", "pcp")
@@ -34,12 +35,14 @@ def run_dirs(targets: list[Path]) -> list[Path]:
         if not t.exists():
             raise FileNotFoundError(f"{t}: no such run directory")
         found = [t] if (t / "metrics.json").is_file() else sorted(p.parent for p in t.rglob("metrics.json"))
-        out += [d for d in found if (d / "motion.npz").is_file()]
+        out += [d for d in found if (d / "motion.npz").is_file() and d.name != PREVIOUS]
     return list(dict.fromkeys(out))
 
 
 def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]:
-    """(old, new) accuracy figures of one run; metrics.json rewritten unless ``dry_run``."""
+    """(old, new) accuracy figures of one run; metrics.json (and the manifest's checksum of it)
+    rewritten unless ``dry_run``. A folder that is not a complete run is refused."""
+    require_complete(run)
     metrics = json.loads((run / "metrics.json").read_text())
     if "config" not in metrics:
         raise ValueError(f"{run}: metrics.json holds no config (not a mocap track run)")
@@ -60,7 +63,9 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
                 previous[block] = {k: v for k, v in old[block].items() if k != "offsets_mm"}
         metrics.update(new)
         metrics["rescored"] = {"by": version, "frames": F, "previous": previous}
+        manifest = read_manifest(run) or {}
         write_json(run / "metrics.json", metrics)
+        write_manifest(run, list(manifest["files"]), manifest.get("overrides"))
     return old, new
 
 

@@ -12,6 +12,15 @@ from mocap.export.motion import motion_arrays, write_motion
 from mocap.trackers.base import Estimate
 
 
+def seal(root):
+    """Mark each fake run complete as a finished run is: manifest.json with its files' checksums."""
+    from mocap.run_folder.manifest import write_manifest
+
+    for m in root.rglob("metrics.json"):
+        write_manifest(m.parent, [n for n in ("motion.npz", "metrics.json") if (m.parent / n).is_file()])
+    return root
+
+
 def fake_run(root, name, overrides, **metrics):
     d = root / name
     (d / ".hydra").mkdir(parents=True)
@@ -35,6 +44,7 @@ def test_sweep_rows_seeds_nan_and_no_ground_truth(tmp_path, body):
     chis[:, 0] = [0.0, 0.01, 0.03]                      # x: 0, 10, 30 mm -> 2nd difference 10 mm
     ests = [Estimate(c, np.zeros(body.num_shape)) for c in chis]
     write_motion(d / "motion.npz", motion_arrays(body, ests, [0, 0, 0], 25.0))
+    seal(tmp_path)
     got = collect(tmp_path)
     assert [p for p in got.problems if "fp0.3_s1" in p[0]] and "nan" in got.problems[0][1]
     rows = {(r["data"], r["overrides"]): r for r in table_rows(got.runs)}

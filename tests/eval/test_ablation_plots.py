@@ -26,6 +26,15 @@ def per_frame(data, tracker, seed):
     return [base + slope * f + 2.0 * seed * (f > 0) for f in range(FRAMES)]
 
 
+def seal(root):
+    """Mark each fake run complete as a finished run is: manifest.json with its files' checksums."""
+    from mocap.run_folder.manifest import write_manifest
+
+    for m in root.rglob("metrics.json"):
+        write_manifest(m.parent, [n for n in ("motion.npz", "metrics.json") if (m.parent / n).is_file()])
+    return root
+
+
 def fake_sweep(root):
     """2 datasets x 3 trackers x 2 seeds, each run directory as experiments/track.py writes it
     (.hydra/overrides.yaml, metrics.json with the keys of a real mismatch run)."""
@@ -57,7 +66,7 @@ def fake_sweep(root):
 
 @pytest.fixture
 def sweep(tmp_path):
-    got = collect(fake_sweep(tmp_path / "sweep"))
+    got = collect(seal(fake_sweep(tmp_path / "sweep")))
     assert not got.problems and len(got.runs) == 12
     return got
 
