@@ -22,7 +22,11 @@ reported with a warning.
 
 ``write_sequence`` writes into a temporary folder beside the target and renames it into place
 when complete, so an interrupted run leaves no half-written sequence. ``load_sequence``
-validates everything and names the file and field of any problem.
+validates everything and names the file and field of any problem. Non-finite values (NaN,
+Inf) in the ground truth or the detections are refused, naming the file, field, frame / row;
+``nonfinite="drop"`` leaves them out instead (ground-truth joints become invalid, detection
+rows are removed) and counts what it dropped in ``meta["dropped_nonfinite"]`` (a run reports
+it in metrics.json). Non-finite ground-truth poses (``chi``) and markers are always refused.
 """
 
 from __future__ import annotations
@@ -150,8 +154,15 @@ def _read_images(folder: Path, kind: str, views: list[str], frames: int, w: int,
     return out
 
 
-def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4) -> Sequence:
-    """Read and validate a sequence folder (``images=False`` skips the RGB images)."""
+NONFINITE = ("refuse", "drop")
+
+
+def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
+                  nonfinite: str = "refuse") -> Sequence:
+    """Read and validate a sequence folder (``images=False`` skips the RGB images);
+    ``nonfinite``: refuse (default) or drop NaN / Inf ground-truth joints and detections."""
+    if nonfinite not in NONFINITE:
+        raise ValueError(f"setting nonfinite = {nonfinite!r} is not allowed (one of: {', '.join(NONFINITE)})")
     folder = Path(folder)
     meta_path = folder / "sequence.json"
     info = _read_json(meta_path, f"is {folder} a sequence folder?")
@@ -179,20 +190,49 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4) 
                           "every frame (wrong threshold or segmentation failed?)", stacklevel=2)
     imgs = (_read_images(folder, "images", views, frames, w, h, threads)
             if content.get("images") and images else None)
-    det = _load_detections(folder / "detections.json", views) if content.get("detections") else None
-    gt = _load_gt(folder / "gt.npz", frames) if content.get("gt") else None
+    dropped: dict[str, int] = {}
+    det = (_load_detections(folder / "detections.json", views, frames, nonfinite, dropped)
+           if content.get("detections") else None)
+    gt = _load_gt(folder / "gt.npz", frames, nonfinite, dropped) if content.get("gt") else None
+    meta = dict(info.get("meta", {}))
+    if dropped:
+        meta["dropped_nonfinite"] = dropped
+        warnings.warn(f"{folder}: non-finite values dropped (nonfinite=drop): "
+                      + ", ".join(f"{n} {what}" for what, n in dropped.items()), stacklevel=2)
     return Sequence(name=str(info.get("name", folder.name)), rig=rig, fps=float(info.get("fps", 25.0)),
-                    masks=masks, images=imgs, detections=det, gt=gt, meta=info.get("meta", {}))
+                    masks=masks, images=imgs, detections=det, gt=gt, meta=meta)
 
 
-def _load_detections(path: Path, views: list[str]) -> Detections:
+def _load_detections(path: Path, views: list[str], frames: int | None = None, nonfinite: str = "refuse",
+                     dropped: dict | None = None) -> Detections:
     d = _read_json(path, "sequence.json lists detections")
     labels = tuple(_require(d, "labels", path))
     if _require(d, "columns", path) != _COLUMNS:
         raise SequenceFormatError(f"{path}: field 'columns' must be {_COLUMNS}")
-    rows = np.asarray(_require(d, "rows", path), dtype=np.float64).reshape(-1, 6)
-    if len(rows) and (rows[:, 1].max() >= len(views) or rows[:, 1].min() < 0):
-        raise SequenceFormatError(f"{path}: field 'rows': view index out of range")
+    try:
+        rows = np.asarray(_require(d, "rows", path), dtype=np.float64).reshape(-1, 6)
+    except (TypeError, ValueError) as exc:
+        raise SequenceFormatError(f"{path}: field 'rows' must be rows of 6 numbers ({exc})") from None
+    bad = ~np.isfinite(rows).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        col = _COLUMNS[int(np.flatnonzero(~np.isfinite(rows[i]))[0])]
+        if nonfinite != "drop" or not np.isfinite(rows[bad][:, :3]).all():
+            raise SequenceFormatError(
+                f"{path}: field 'rows': row {i} has {col} = {rows[i, _COLUMNS.index(col)]} "
+                f"({int(bad.sum())} row(s) with NaN/Inf; data.nonfinite=drop leaves out rows with a "
+                "non-finite x, y or confidence)")
+        rows = rows[~bad]
+        if dropped is not None:
+            dropped["detection rows"] = int(bad.sum())
+    checks = (("view", 1, 0, len(views)), ("label", 2, -1, len(labels)),
+              ("frame", 0, 0, frames if frames is not None else np.inf))
+    for name, c, lo, hi in checks:
+        out = (rows[:, c] < lo) | (rows[:, c] >= hi) | (rows[:, c] != np.round(rows[:, c]))
+        if out.any():
+            i = int(np.flatnonzero(out)[0])
+            raise SequenceFormatError(f"{path}: field 'rows': row {i} has {name} = {rows[i, c]:g}, out of "
+                                      f"range (an integer in [{lo}, {hi - 1:g}])")
     try:
         return Detections(labels=labels, frame=rows[:, 0].astype(np.int64),
                           view=rows[:, 1].astype(np.int64), label=rows[:, 2].astype(np.int64),
@@ -213,7 +253,7 @@ def write_ground_truth(g: GroundTruth, path: Path) -> None:
     np.savez_compressed(path, **arrays)
 
 
-def _load_gt(path: Path, frames: int) -> GroundTruth:
+def _load_gt(path: Path, frames: int, nonfinite: str = "refuse", dropped: dict | None = None) -> GroundTruth:
     if not path.is_file():
         raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
     with np.load(path) as z:
@@ -247,4 +287,24 @@ def _load_gt(path: Path, frames: int) -> GroundTruth:
     if len(gt.joints) != frames:
         raise SequenceFormatError(f"{path}: field 'joints' has {len(gt.joints)} frames, sequence.json "
                                   f"says {frames}")
+    for key in ("chi", "markers", "alpha"):
+        arr = getattr(gt, key)
+        if arr is not None and not np.isfinite(arr).all():
+            where = np.argwhere(~np.isfinite(np.asarray(arr)))[0]
+            raise SequenceFormatError(f"{path}: field '{key}' has NaN/Inf (first at index "
+                                      f"{tuple(int(i) for i in where)}; never dropped)")
+    valid = np.ones(gt.joints.shape[:2], bool) if gt.joint_valid is None else gt.joint_valid
+    bad = valid & ~np.isfinite(gt.joints).all(axis=2)
+    if bad.any():
+        f, j = (int(i) for i in np.argwhere(bad)[0])
+        if nonfinite != "drop":
+            raise SequenceFormatError(
+                f"{path}: field 'joints' has NaN/Inf at frame {f}, joint {gt.joint_names[j]!r} "
+                f"({int(bad.sum())} joint position(s); mark them invalid in 'joint_valid', or "
+                "data.nonfinite=drop leaves them out)")
+        from dataclasses import replace
+
+        gt = replace(gt, joint_valid=valid & ~bad)
+        if dropped is not None:
+            dropped["ground-truth joints"] = int(bad.sum())
     return gt

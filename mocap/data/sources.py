@@ -27,18 +27,21 @@ def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, 
 
 def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
                     views: Sequence_[int | str] | None = None,
-                    silhouette_noise: Mapping | None = None, seed: int = 0) -> Sequence:
+                    silhouette_noise: Mapping | None = None, seed: int = 0,
+                    nonfinite: str = "refuse") -> Sequence:
     """A sequence folder written by ``mocap make-dataset`` (or converted data).
 
     path: the folder (a relative path is relative to the working directory).
     views: keep only these views (indices or camera names, in this order), e.g. [0, 2, 4, 6].
     silhouette_noise: options of :class:`mocap.data.corruption.SilhouetteNoise` applied to
     every mask, deterministically for ``seed`` (the same seed gives the same masks).
+    nonfinite: NaN / Inf in the ground truth or detections: refuse (default) or drop them
+    (counted in the sequence's meta and the run's metrics.json, ``dropped_nonfinite``).
     """
     p = Path(path)
     if not p.is_dir():
         raise FileNotFoundError(f"data path not found: {p}")
-    seq = load_sequence(p, images=images)
+    seq = load_sequence(p, images=images, nonfinite=nonfinite)
     changes: dict = {}
     if name:
         changes["name"] = str(name)

@@ -122,6 +122,9 @@ def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
         if "mpjpe_mm" not in data and "jitter_mm" not in data:
             data.update(_motion_metrics(d))
         data["_overrides"] = _overrides(d)
+        if data.get("dropped_nonfinite"):       # data.nonfinite=drop: in the table, and said so
+            problems.append((str(d), "in the table, but its data had NaN/Inf values left out: "
+                             + ", ".join(f"{n} {k}" for k, n in data["dropped_nonfinite"].items())))
         runs.append(data)
     expected = expected_jobs(sweep_dir)
     if expected is not None and expected > len(run_dirs):
