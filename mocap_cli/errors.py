@@ -8,7 +8,7 @@ from omegaconf.errors import OmegaConfBaseException
 
 #: raised by validation before work starts: a setting's value, a missing or existing file, a key
 USER_ERRORS = (ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, KeyError,
-               OmegaConfBaseException)
+               PermissionError, OmegaConfBaseException)
 
 
 def _one_line(text: str) -> str:
@@ -56,6 +56,10 @@ def user_error_message(exc: BaseException) -> str | None:
         return None
     while isinstance(exc, InstantiationException) and exc.__cause__ is not None:
         exc = exc.__cause__
+    cause = exc.__cause__
+    if isinstance(exc, ValueError) and isinstance(cause, OSError) and "configure handler" in str(exc):
+        # Hydra's log file in the run folder: name the file, not the logging handler
+        return f"cannot write {cause.filename} ({cause.strerror}): the run folder is not writable"
     if isinstance(exc, KeyError) and len(exc.args) == 1 and isinstance(exc.args[0], str):
         message = exc.args[0]           # KeyError's str() quotes its message
     else:

@@ -153,6 +153,12 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     seed = int(config.get("seed", 0))
     threads = resolve_threads(config.get("threads", "auto"), parallel_jobs)
     out_dir.mkdir(parents=True, exist_ok=True)
+    probe = out_dir / ".write-check"
+    try:
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:
+        raise PermissionError(f"run folder {out_dir} is not writable ({exc.strerror})") from None
     state = run_state(out_dir, config, recording, threads)
     if config.get("skip_complete", False):
         if state == "complete":
