@@ -174,8 +174,9 @@ def mixed_rows(runs: list[dict]) -> list[tuple[str, str]]:
         if repeated:
             problems.append((label, f"this row holds seed(s) {', '.join(repeated)} more than once: "
                                     "the sweep folder mixes configs (counted once each)"))
-        flats = [_flat({k: v for k, v in (r.get("config") or {}).items() if k not in SAME_RUN_KEYS})
+        flats = [_flat({k: v for k, v in r["config"].items() if k not in SAME_RUN_KEYS})
                  for r in rs if isinstance(r.get("config"), dict)]
+        flats = [{k: v for k, v in f.items() if k.rsplit(".", 1)[-1] != "seed"} for f in flats]  # data.seed
         differ = sorted({k for f in flats for k in set(f) | set(flats[0]) if f.get(k) != flats[0].get(k)})
         if differ:
             problems.append((label, f"this row's runs have different configs (differ in: "

@@ -26,10 +26,12 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     if fmt not in FORMATS:
         raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
     run_dir = Path(run_dir)
-    if not (run_dir / "motion.npz").is_file():
-        raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")
+    if not run_dir.is_dir():
+        raise FileNotFoundError(f"{run_dir}: no motion.npz (no such run directory)")
     if require_manifest:
         require_complete(run_dir)
+    if not (run_dir / "motion.npz").is_file():
+        raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")
     out = Path(out) if out is not None else run_dir / f"motion{FORMATS[fmt]}"
     if not out.parent.is_dir():
         raise FileNotFoundError(f"output {out}: folder {out.parent} does not exist")

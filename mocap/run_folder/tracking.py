@@ -177,13 +177,14 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     try:
         prepared = _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence,
                             make_tracker, wrap)
+        sink = make_sink(out_dir, **rec_cfg)     # its settings checked; nothing written yet
     except BaseException:
         if state in ("complete", "changed"):
             restore_stored_config(out_dir)      # refused before any work: the old run stays as it was
         raise
     for note in set_aside(out_dir):     # nothing of an earlier attempt may describe this run
         print(note, file=sys.stderr)
-    return _track(out_dir, config, prepared, rec_cfg, recording, seed, threads, source, extra, overrides)
+    return _track(out_dir, config, prepared, sink, recording, seed, threads, source, extra, overrides)
 
 
 def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence, make_tracker, wrap):
@@ -218,10 +219,9 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
     return body, seq, tracker, stepped, scorer, init, alpha, init_info, F
 
 
-def _track(out_dir, config, prepared, rec_cfg, recording, seed, threads, source, extra, overrides):
+def _track(out_dir, config, prepared, sink, recording, seed, threads, source, extra, overrides):
     body, seq, tracker, stepped, scorer, init, alpha, init_info, F = prepared
     text = config_text(config)
-    sink = make_sink(out_dir, **rec_cfg)
     metadata = run_metadata(text, source, seed, tracker=tracker.name, data=seq.name)
     run_id = metadata.get("run_id", "")
     sink.start(RunInfo(text, metadata), body, seq)
