@@ -98,10 +98,6 @@ def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
     run_dirs = sorted({p.parent for p in sweep_dir.rglob(".hydra")})
     for d in run_dirs:
         m = d / "metrics.json"
-        problem = manifest_problem(d) if require_manifest else None
-        if problem is not None and m.is_file():
-            problems.append((str(d), f"not a complete run ({problem}); not in the table"))
-            continue
         if not m.is_file():
             failed = (d / "recording.failed.rrd").is_file()
             problems.append((str(d), "failed (recording.failed.rrd, no metrics.json)" if failed
@@ -115,6 +111,10 @@ def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
                     raise KeyError(key)
         except (json.JSONDecodeError, KeyError) as exc:
             problems.append((str(d), f"unreadable metrics.json ({exc!r})"))
+            continue
+        problem = manifest_problem(d) if require_manifest else None
+        if problem is not None:
+            problems.append((str(d), f"not a complete run ({problem}); not in the table"))
             continue
         if "mpjpe_mm" in data and not np.isfinite(data["mpjpe_mm"]):
             problems.append((str(d), f"joint error is {data['mpjpe_mm']} (not averaged)"))
