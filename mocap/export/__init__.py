@@ -26,9 +26,9 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     if fmt not in FORMATS:
         raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
     run_dir = Path(run_dir)
-    if not run_dir.is_dir():
-        raise FileNotFoundError(f"{run_dir}: no motion.npz (no such run directory)")
-    if require_manifest:
+    if not (run_dir / "motion.npz").is_file() and not (run_dir / "previous_run").is_dir():
+        raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")
+    if require_manifest:        # (an interrupted re-run: says where the last complete run is)
         require_complete(run_dir)
     if not (run_dir / "motion.npz").is_file():
         raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")

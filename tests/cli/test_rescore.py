@@ -15,6 +15,7 @@ import mocap
 from mocap.data.sources import folder_sequence
 from mocap.eval.mismatch import fit_oracle
 from mocap.export.motion import motion_arrays, write_motion
+from mocap.run_folder.manifest import manifest_problem, write_manifest
 from mocap.trackers.base import Estimate
 
 REPO = Path(__file__).resolve().parents[2]
@@ -37,6 +38,7 @@ def test_rescoring_an_unchanged_evaluation_gives_the_runs_own_figures(short_run,
     assert after["per_frame_mm"] == pytest.approx(before["per_frame_mm"], abs=1e-9)
     assert after["rescored"]["previous"]["mpjpe_mm"] == before["mpjpe_mm"]
     assert after["sec_per_frame"] == before["sec_per_frame"]          # speed figures kept
+    assert manifest_problem(run) is None                  # the manifest follows the new metrics.json
     assert rescore(tmp_path / "nothing").returncode == 2
 
 
@@ -56,6 +58,7 @@ def test_rescoring_a_mismatch_run_scores_the_oracles_poses_as_the_oracle(tmp_pat
               "data": {"_target_": "mocap.data.sources.folder_sequence", "path": str(WALK),
                        "images": False, "name": "mismatch_walk"}}
     (run / "metrics.json").write_text(json.dumps({"config": config, "mpjpe_mm": 999.0}))
+    write_manifest(run, ["motion.npz", "metrics.json"])        # a complete run, as mocap track leaves it
     r = rescore(run)
     assert r.returncode == 0, r.stderr
     m = json.loads((run / "metrics.json").read_text())
