@@ -279,3 +279,36 @@ def test_nonfinite_drop_is_reported_in_metrics(seq_folder, tmp_path, body):
         seq = load_sequence(d, nonfinite="drop")
     full = load_sequence(seq_folder)
     assert len(seq.detections.frame) == len(full.detections.frame) - 1
+
+
+def test_frames_settings_checked_before_work():
+    from mocap.run_folder.tracking import check_settings
+
+    assert check_settings({"seed": 3, "frames": None}) is None
+    assert check_settings({"seed": 0, "frames": "all"}) is None
+    assert check_settings({"seed": 0, "frames": 7}) == 7
+    for bad in ({"frames": 0}, {"frames": True}, {"frames": 2.5}, {"seed": "abc"}, {"seed": 1.0}):
+        with pytest.raises(ValueError, match="setting (frames|seed) = "):
+            check_settings({"seed": 0, **bad})
+
+
+def test_nonfinite_drop_runs_and_says_so_in_metrics(tmp_path, body):
+    """A folder with a NaN ground-truth joint, tracked with data.nonfinite=drop (frames=all):
+    metrics.json reports what was left out, and the run is complete."""
+    from mocap.data.sequence_io import write_sequence
+    from mocap.data.sources import synthetic_sequence
+
+    seq = synthetic_sequence(body=body, cameras="ring4_small", motion="walk", frames=2, fps=25, seed=0,
+                             name="tiny_masks", shape_scale=0.8, images=False)
+    d = write_sequence(seq, tmp_path / "seq")
+    with np.load(d / "gt.npz") as z:
+        arrays = dict(z)
+    arrays["joints"][1, 4, 2] = np.nan
+    np.savez_compressed(d / "gt.npz", **arrays)
+    run_dir = tmp_path / "run"
+    args = ["track", "tracker=apf", "data=folder", f"data.path={d}", "data.nonfinite=drop", "frames=all",
+            "tracker.particles=4", "tracker.layers=2", "recording.enabled=false", f"hydra.run.dir={run_dir}"]
+    assert main(args) == 0
+    m = json.loads((run_dir / "metrics.json").read_text())
+    assert m["dropped_nonfinite"] == {"ground-truth joints": 1} and m["frames"] == 2
+    assert np.isfinite(m["mpjpe_mm"]) and manifest_problem(run_dir) is None

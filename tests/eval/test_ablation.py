@@ -74,3 +74,19 @@ def test_expected_jobs_counts_the_sweep_config_and_the_command_line(tmp_path):
                                "'data.noise={holes:2,dilate_px:3}'"]}}}))
     assert expected_jobs(tmp_path) == 3 * 2 * 1
     assert expected_jobs(tmp_path / "nothing") is None
+
+
+def test_runs_are_labelled_and_counted_from_the_config_that_ran(tmp_path):
+    """overrides.yaml of a refused re-run says particles=20; the run's config says 25: the
+    label is 25. Seeds are counted as distinct seeds; a seed twice in a row is reported."""
+    for name, over, particles, seed in (("a", "20", 25, 0), ("b", "25", 25, 1), ("c", "20", 20, 0),
+                                        ("d", "20", 20, 0)):
+        fake_run(tmp_path, name, ["tracker=apf", f"tracker.particles={over}", f"seed={seed}"],
+                 tracker="apf", seed=seed, mpjpe_mm=10.0,
+                 config={"seed": seed, "tracker": {"particles": particles}})
+    seal(tmp_path)
+    got = collect(tmp_path)
+    rows = {r["overrides"]: r for r in table_rows(got.runs)}
+    assert rows["tracker.particles=25"]["seeds"] == 2 and rows["tracker.particles=20"]["seeds"] == 1
+    (problem,) = got.problems
+    assert "tracker.particles=20" in problem[0] and "seed(s) 0 more than once" in problem[1]
