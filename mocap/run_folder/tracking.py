@@ -164,7 +164,11 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
         if state == "complete":
             print(f"skipping {out_dir}: already complete")
             return None
+        killed = (out_dir / "recording.rrd.part").exists()
         if restore_previous(out_dir, config, recording, threads):
+            if killed:
+                print("removed recording.rrd.part (the recording of a killed run; it does not verify)",
+                      file=sys.stderr)
             print(f"skipping {out_dir}: already complete (the run kept in previous_run/ restored)")
             return None
     if state == "changed" and config.get("resume_on_change", "rerun") == "fail":
