@@ -167,6 +167,7 @@ def test_an_interrupted_rerun_is_never_taken_for_the_new_run(old_run, sig, tmp_p
     assert (run / "previous_run" / "motion.npz").read_bytes() == old_motion
     r = track(run, "recording.enabled=false", "skip_complete=true")
     assert r.returncode == 0 and "previous_run/ restored" in r.stdout, r.stderr[-3000:]
+    assert ("removed recording.rrd.part" in r.stderr) == (sig == signal.SIGKILL)
     assert manifest_problem(run) is None and (run / "motion.npz").read_bytes() == old_motion
     assert not (run / "recording.rrd.part").exists() and not (run / "previous_run").exists()
     assert export_run(run, "bvh", tmp_path / "m.bvh").is_file()
