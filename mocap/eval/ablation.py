@@ -81,14 +81,15 @@ def _motion_metrics(run_dir: Path) -> dict:
 
 
 def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
-    """Every run under ``sweep_dir`` (a directory holding .hydra/); runs that are not complete
-    (no valid manifest.json, :mod:`mocap.run_folder.manifest`; unless ``require_manifest`` is
-    False), runs without a readable metrics.json, and runs whose joint error is NaN, are
-    reported as problems, never dropped silently or averaged. Runs without ground truth keep
-    their own metrics (reprojection, bone-length stability, jitter; the last two from
-    motion.npz when metrics.json lacks them). Runs are labelled from the configuration that
-    ran (metrics.json's ``"config"``); a row holding runs of different configurations or the
-    same seed twice (a sweep folder that mixes configs) is reported too (:func:`mixed_rows`)."""
+    """Every run under ``sweep_dir`` (a directory holding .hydra/). Reported as problems, never
+    dropped silently or averaged: runs that are not complete (no valid manifest.json,
+    :mod:`mocap.run_folder.manifest`; with ``require_manifest=False`` kept in the table and
+    listed as UNVERIFIED), runs without a readable metrics.json, runs whose joint error is NaN.
+    Runs without ground truth keep their own metrics (reprojection, bone-length stability,
+    jitter; the last two from motion.npz when metrics.json lacks them). Runs are labelled
+    from the configuration that ran (metrics.json's ``"config"``); a row holding runs of
+    different configurations or one seed twice (a sweep folder that mixes configs) is
+    reported too (:func:`mixed_rows`)."""
     from mocap.run_folder.manifest import manifest_problem
 
     sweep_dir = Path(sweep_dir)
@@ -112,10 +113,12 @@ def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
         except (json.JSONDecodeError, KeyError) as exc:
             problems.append((str(d), f"unreadable metrics.json ({exc!r})"))
             continue
-        problem = manifest_problem(d) if require_manifest else None
-        if problem is not None:
+        problem = manifest_problem(d)
+        if problem is not None and require_manifest:
             problems.append((str(d), f"not a complete run ({problem}); not in the table"))
             continue
+        if problem is not None:         # accepted unverified (runs written before manifests): said so
+            problems.append((str(d), f"UNVERIFIED, in the table ({problem})"))
         if "mpjpe_mm" in data and not np.isfinite(data["mpjpe_mm"]):
             problems.append((str(d), f"joint error is {data['mpjpe_mm']} (not averaged)"))
             continue

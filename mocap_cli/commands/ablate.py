@@ -9,7 +9,9 @@ one row per value), particles x layers and energy terms; reports the joint error
 (mean ± std; a single seed shows the value alone), PCP, time per frame and energy evaluations
 per frame. Runs without ground truth get their own columns (reprojection, bone-length
 stability, jitter; from motion.npz when metrics.json lacks them). Lists the runs that failed,
-are missing or have a NaN joint error (never averaged in).
+are missing, are not complete (no valid manifest.json: never a row, unless
+--accept-unverified) or have a NaN joint error (never averaged in), and rows whose runs mix
+configs.
 """
 
 from __future__ import annotations
@@ -27,8 +29,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=None, help="output folder (default: the sweep dir)")
     p.add_argument("--title", default="Ablation")
     p.add_argument("--strict", action="store_true", help="exit 1 when any run failed or is missing")
+    p.add_argument("--accept-unverified", action="store_true",
+                   help="keep runs without a valid manifest.json (written before manifests) in the table, "
+                        "each listed as UNVERIFIED")
     args = p.parse_args(argv)
-    got = collect(args.sweep_dir)
+    got = collect(args.sweep_dir, require_manifest=not args.accept_unverified)
     out = args.out or args.sweep_dir
     out.mkdir(parents=True, exist_ok=True)
     rows = table_rows(got.runs)

@@ -3,12 +3,15 @@
     mocap export outputs/track/<run> --format bvh
     mocap export outputs/track/<run> --format gltf --out walk.glb --overwrite
 
-Default output: <run dir>/motion.<bvh|trc|glb|c3d>. Axes and units: mocap/export/axes.py.
+Default output: <run dir>/motion.<bvh|trc|glb|c3d>. The run folder must be a complete run (a
+valid manifest.json); --accept-unverified exports one written before manifests, with a
+WARNING. Axes and units: mocap/export/axes.py.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -24,9 +27,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument("--markers", default="landmarks", choices=["landmarks", "joints", "tracker"],
                    help="TRC/C3D points: the body's landmarks, its joints, or a marker tracker's own")
+    p.add_argument("--accept-unverified", action="store_true",
+                   help="export a run folder without a valid manifest.json (written before manifests)")
     args = p.parse_args(argv)
     t = time.perf_counter()
-    out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers)
+    if args.accept_unverified:
+        from mocap.run_folder.manifest import manifest_problem
+
+        problem = manifest_problem(args.run_dir)
+        if problem is not None:
+            print(f"WARNING: {args.run_dir}: exporting an unverified run ({problem})", file=sys.stderr)
+    out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers,
+                     require_manifest=not args.accept_unverified)
     print(f"wrote {out} ({time.perf_counter() - t:.2f} s)")
     return 0
 
