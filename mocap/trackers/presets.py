@@ -38,9 +38,14 @@ _HYBRID_PRIOR = replace(HybridSettings(),
                         apf=replace(_HYBRID_APF, energy=replace(_HYBRID_APF.energy, prior=1.0)))
 
 
+#: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
+#: (docs/results/real_motion.md): its narrow sigma makes -log p steep
+REAL_PRIOR_WEIGHT = 0.05
+
+
 def _real(prior):
     """``prior`` (PriorSettings) reading the prior learned from real motion capture."""
-    return replace(prior, prior_source="real")
+    return replace(prior, prior_source="real", learned_weight=REAL_PRIOR_WEIGHT)
 
 
 #: name -> preset

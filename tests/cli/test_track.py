@@ -32,7 +32,7 @@ DATA = {"marker_apf": "walk_markers_small"}
 
 
 def fast_overrides(tracker: str) -> tuple[list[str], int | None]:
-    family = "apf" if tracker.startswith("apf") else tracker
+    family = next(f for f in ("apf", "hybrid", tracker) if tracker.startswith(f))
     return FAST[family]
 
 

@@ -14,6 +14,7 @@ from mocap.body.catalogue import make_landmark_set
 from mocap.cameras import project
 from mocap.eval.by_name import SKELETONS, NameScorer
 from mocap_build.mismatch import real_motion as rm
+from mocap_cli import data_dir
 
 REPO = Path(__file__).resolve().parents[2]
 CONF = REPO / "mocap_cli" / "conf"
@@ -144,7 +145,8 @@ def test_config_paths_resolve_from_the_repository_root_and_noise_works(body, mon
     assert a.masks.sum() > seq.masks.sum()
     for s in SPECS.values():
         cfg = yaml.safe_load((CONF / "data" / f"real_{s.name}.yaml").read_text())
-        assert cfg["path"] == f"data/real_motion/{s.key}" and (REPO / cfg["path"]).is_dir()
+        assert cfg["path"] == f"${{mocap_data:}}/real_motion/{s.key}"
+        assert (Path(data_dir()) / "real_motion" / s.key).is_dir()
 
 
 @pytest.mark.slow

@@ -18,8 +18,10 @@ CONF = Path(__file__).resolve().parents[2] / "mocap_cli" / "conf"
 register_configs()
 # small budgets, applied to both sides
 FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "layers": 2},
+        "apf_prior_real": {"particles": 6, "layers": 2},
         "apf_25x10": {"particles": 6, "layers": 2}, "local": {"iterations": 2},
-        "hybrid": {"local": {"iterations": 2}, "apf": {"particles": 6, "layers": 2}},
+        **{h: {"local": {"iterations": 2}, "apf": {"particles": 6, "layers": 2}}
+           for h in ("hybrid", "hybrid_prior", "hybrid_prior_real")},
         "marker_apf": {"particles": 8, "layers": 2}}
 
 
