@@ -108,10 +108,18 @@ def output_dir() -> Path:
 
 
 def parallel_jobs() -> int:
-    """Jobs this run shares the machine with: the launcher's n_jobs in a --multirun."""
+    """Jobs this run shares the machine with: the launcher's n_jobs in a --multirun (joblib), or
+    for the submitit launchers with ``cpus_per_task`` set, the cores over cpus_per_task (so that
+    ``threads=auto`` is cpus_per_task: on SLURM the job's affinity mask already holds that many
+    cores; submitit_local starts every job at once on this machine). -1: one job per core."""
     hc = HydraConfig.get()
     if hc.mode != RunMode.MULTIRUN:
         return 1
+    cpus = hc.launcher.get("cpus_per_task")
+    if cpus:
+        from mocap.threads import available_cores
+
+        return max(1, available_cores() // int(cpus))
     return int(hc.launcher.get("n_jobs", 1) or 1)
 
 
