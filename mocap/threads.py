@@ -32,26 +32,33 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
+#: what ``threads`` may be set to, as the error for another value says it
+THREADS_ALLOWED = "'auto' (cores / parallel jobs), an integer >= 1, or null (the libraries' defaults)"
+
+
 def resolve_threads(setting: int | str | None, parallel_jobs: int = 1) -> int | None:
     """The thread budget from a config value.
 
-    setting: ``"auto"`` (cores // parallel_jobs, at least 1), a positive int, or None / 0
-    (no limit: the libraries' defaults). parallel_jobs: processes running at the same time
-    (a joblib sweep's n_jobs; -1 means one per core, as joblib reads it).
+    setting: ``"auto"`` (cores // parallel_jobs, at least 1), an int >= 1, or None (no limit:
+    the libraries' defaults). Anything else (0, a negative number, another word) raises
+    ValueError naming the setting, its value and what is allowed. parallel_jobs: processes
+    running at the same time (a joblib sweep's n_jobs; -1 means one per core, as joblib reads it).
     """
-    if setting is None or setting == 0 or setting == "none":
+    if setting is None or setting == "none":
         return None
-    cores = available_cores()
     if setting == "auto":
+        cores = available_cores()
         jobs = cores if parallel_jobs is None or parallel_jobs < 0 else max(1, int(parallel_jobs))
         return max(1, cores // min(jobs, cores))
-    try:
-        n = int(setting)
-    except (TypeError, ValueError):
-        raise ValueError(f"threads must be 'auto', a positive int or null, got {setting!r}") from None
-    if n < 0:
-        raise ValueError(f"threads must be 'auto', a positive int or null, got {setting!r}")
-    return n or None
+    n = None
+    if not isinstance(setting, bool | float):
+        try:
+            n = int(setting)
+        except (TypeError, ValueError):
+            pass
+    if n is None or n < 1:
+        raise ValueError(f"setting threads = {setting!r} is out of range: allowed {THREADS_ALLOWED}")
+    return n
 
 
 def _numba_threads(n: int | None) -> int | None:

@@ -134,6 +134,10 @@ def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> di
     into the Hydra run directory. check_sequence(seq): raises when the data does not suit the
     command, before any tracking."""
     from mocap.run_folder import run_tracking
+    from mocap.threads import resolve_threads
+
+    jobs = parallel_jobs()
+    resolve_threads(cfg.get("threads", "auto"), jobs)     # a bad value fails here, before any work
 
     def make_sequence(body):
         seq = build(cfg.data, body=body)
@@ -146,4 +150,4 @@ def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> di
         make_body=lambda: build(cfg.body),
         make_sequence=make_sequence,
         make_tracker=lambda **objects: build(cfg.tracker, **objects),
-        parallel_jobs=parallel_jobs(), source=source_checkout(), wrap=wrap, extra=extra)
+        parallel_jobs=jobs, source=source_checkout(), wrap=wrap, extra=extra)

@@ -61,7 +61,11 @@ def test_auto_budget_is_cores_per_parallel_job(monkeypatch):
     assert threads.resolve_threads("auto", -1) == 1          # joblib n_jobs=-1: one per core
     assert threads.resolve_threads("auto", 16) == 1
     assert threads.resolve_threads(3) == 3
-    assert threads.resolve_threads(None) is None and threads.resolve_threads(0) is None
-    for bad in ("many", -2):
-        with pytest.raises(ValueError):
+    assert threads.resolve_threads("3") == 3 and threads.resolve_threads(None) is None
+    for bad in ("many", -2, -1, 0, "0", 1.5, True, ""):
+        with pytest.raises(ValueError, match=r"^setting threads = .* is out of range: allowed 'auto'"):
             threads.resolve_threads(bad)
+    with pytest.raises(ValueError) as bad:
+        threads.resolve_threads(0)
+    assert str(bad.value) == ("setting threads = 0 is out of range: allowed 'auto' (cores / parallel jobs), "
+                              "an integer >= 1, or null (the libraries' defaults)")
