@@ -4,6 +4,7 @@ difference between the two tracks (and between two 1-thread runs in the same pro
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_threads.py [--frames 3]
         [--runs local,apf_25x10,hybrid,marker_apf] [--threads 2] [--cameras ring4_small|mpi08]
+        [--self-init] [--save FILE.npz] [--against FILE.npz]
 
 Data: a synthetic walk (seed 0) seen by ``--cameras``: ``ring4_small`` (4 views at 320x240, the
 default) or ``mpi08`` (8 views at 1004x1004, the speed benchmark's rig); silhouettes for
@@ -13,13 +14,18 @@ local / apf / hybrid, labelled 2D detections for marker_apf (self-initialised fr
 every frame and DOF between the 1-thread and the N-thread track (rad / m), the first frame
 where they differ, the largest relative difference of the per-frame energies (the energy terms
 of the estimates' diagnostics: they show a difference that has not moved the pose yet), the same
-for a second 1-thread run, and the seconds of each run.
+for a second 1-thread run, and the seconds of each run; with ``--against`` also the 1-thread
+tracks against those of another process (``--save``): a cold numba cache, say::
+
+    bench_threads.py --save /tmp/warm.npz
+    NUMBA_CACHE_DIR=$(mktemp -d) bench_threads.py --against /tmp/warm.npz
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -83,22 +89,36 @@ def main() -> None:
     p.add_argument("--cameras", default="ring4_small", help="camera preset: ring4_small or mpi08")
     p.add_argument("--self-init", action="store_true",
                    help="every tracker initialises itself from frame 0 (init.mode=tracker)")
+    p.add_argument("--save", type=Path, help="write the 1-thread tracks here (.npz, one array per tracker)")
+    p.add_argument("--against", type=Path,
+                   help="also compare the 1-thread tracks with those --save wrote (another process: "
+                        "e.g. a cold numba cache, NUMBA_CACHE_DIR=<empty folder>, or another machine)")
     args = p.parse_args()
+    saved = dict(np.load(args.against)) if args.against else {}
     body = mocap.load_body("paper22")
     seqs = sequences(body, args.frames, args.cameras)
     init = "tracker" if args.self_init else None
     print(f"{args.frames} frames of walk {args.cameras}, seed 0; 1 vs {args.threads} threads"
           + ("; self-initialised" if init else ""))
     print(f"{'tracker':11s} {'max|dchi| 1/' + str(args.threads):>16s} {'from':>5s} {'rel dE':>9s} "
-          f"{'max|dchi| 1/1':>14s} {'from':>5s} {'rel dE':>9s} {'s (1)':>7s} {f's ({args.threads})':>7s}")
+          f"{'max|dchi| 1/1':>14s} {'from':>5s} {'rel dE':>9s} {'s (1)':>7s} {f's ({args.threads})':>7s}"
+          + (f" {'max|dchi| file':>15s} {'from':>5s}" if saved else ""))
+    tracks = {}
     for run in args.runs.split(","):
         one, e_one, t1 = track(body, seqs, run, 1, init)
         many, e_many, tn = track(body, seqs, run, args.threads, init)
         again, e_again, _ = track(body, seqs, run, 1, init)
         d_many, f_many = compare(one, many)
         d_again, f_again = compare(one, again)
-        print(f"{run:11s} {d_many:16.3e} {f_many:>5s} {energy_gap(e_one, e_many):9.1e} {d_again:14.3e} "
-              f"{f_again:>5s} {energy_gap(e_one, e_again):9.1e} {t1:7.1f} {tn:7.1f}", flush=True)
+        tracks[run] = one
+        line = (f"{run:11s} {d_many:16.3e} {f_many:>5s} {energy_gap(e_one, e_many):9.1e} {d_again:14.3e} "
+                f"{f_again:>5s} {energy_gap(e_one, e_again):9.1e} {t1:7.1f} {tn:7.1f}")
+        if run in saved:
+            d_file, f_file = compare(one, saved[run])
+            line += f" {d_file:15.3e} {f_file:>5s}"
+        print(line, flush=True)
+    if args.save:
+        np.savez(args.save, **tracks)
 
 
 if __name__ == "__main__":
