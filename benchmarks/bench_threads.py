@@ -4,7 +4,7 @@ difference between the two tracks (and between two 1-thread runs in the same pro
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_threads.py [--frames 3]
         [--runs local,apf_25x10,hybrid,marker_apf] [--threads 2] [--cameras ring4_small|mpi08]
-        [--self-init] [--save FILE.npz] [--against FILE.npz]
+        [--self-init] [--folder data/mismatch/box] [--save FILE.npz] [--against FILE.npz]
 
 Data: a synthetic walk (seed 0) seen by ``--cameras``: ``ring4_small`` (4 views at 320x240, the
 default) or ``mpi08`` (8 views at 1004x1004, the speed benchmark's rig); silhouettes for
@@ -42,15 +42,20 @@ RUNS = {
 }
 
 
-def sequences(body, frames: int, cameras: str = "ring4_small") -> dict:
+def sequences(body, frames: int, cameras: str = "ring4_small", folder: Path | None = None) -> dict:
+    """kind -> sequence: the synthetic walk's, or a sequence folder's silhouettes."""
+    if folder is not None:
+        from mocap.data.sources import folder_sequence
+
+        return {"silhouettes": folder_sequence(body=body, path=str(folder), images=False)}
     common = {"cameras": cameras, "motion": "walk", "frames": frames, "seed": 0}
     return {"silhouettes": mocap.synthetic_sequence(body, **common),
             "markers": mocap.synthetic_sequence(body, masks=False, detections={
                 "enabled": True, "labelled": True, "occlusion": False}, **common)}
 
 
-def track(body, seqs: dict, run: str, threads: int,
-          init: str | None = None) -> tuple[np.ndarray, dict, float]:
+def track(body, seqs: dict, run: str, threads: int, init: str | None = None,
+          frames: int | None = None) -> tuple[np.ndarray, dict, float]:
     """Poses (F, D) of ``run`` tracked with a budget of ``threads``, every frame's energies
     (``energy/<term>`` of its diagnostics: name -> (F,), NaN where a frame has none) and the
     run's seconds. init: the run's own (None) or "tracker" (self-initialised from frame 0)."""
@@ -58,7 +63,7 @@ def track(body, seqs: dict, run: str, threads: int,
     init = init or own
     t = time.perf_counter()
     with thread_budget(threads):
-        result = mocap.track(seqs[kind], tracker, body=body, seed=0, init=init, **settings)
+        result = mocap.track(seqs[kind], tracker, body=body, seed=0, init=init, frames=frames, **settings)
     seconds = time.perf_counter() - t
     scalars = [e.diagnostics.scalars() if hasattr(e.diagnostics, "scalars") else {} for e in result.estimates]
     names = sorted({k for s in scalars for k in s if k.startswith("energy/")})
@@ -93,21 +98,28 @@ def main() -> None:
     p.add_argument("--against", type=Path,
                    help="also compare the 1-thread tracks with those --save wrote (another process: "
                         "e.g. a cold numba cache, NUMBA_CACHE_DIR=<empty folder>, or another machine)")
+    p.add_argument("--folder", type=Path,
+                   help="a sequence folder's silhouettes instead of the synthetic walk (e.g. "
+                        "data/mismatch/box; no ground-truth pose: the trackers initialise themselves)")
     args = p.parse_args()
     saved = dict(np.load(args.against)) if args.against else {}
     body = mocap.load_body("paper22")
-    seqs = sequences(body, args.frames, args.cameras)
-    init = "tracker" if args.self_init else None
-    print(f"{args.frames} frames of walk {args.cameras}, seed 0; 1 vs {args.threads} threads"
+    seqs = sequences(body, args.frames, args.cameras, args.folder)
+    init = "tracker" if args.self_init or args.folder else None
+    data = f"{args.folder}" if args.folder else f"walk {args.cameras}"
+    print(f"{args.frames} frames of {data}, seed 0; 1 vs {args.threads} threads"
           + ("; self-initialised" if init else ""))
     print(f"{'tracker':11s} {'max|dchi| 1/' + str(args.threads):>16s} {'from':>5s} {'rel dE':>9s} "
           f"{'max|dchi| 1/1':>14s} {'from':>5s} {'rel dE':>9s} {'s (1)':>7s} {f's ({args.threads})':>7s}"
           + (f" {'max|dchi| file':>15s} {'from':>5s}" if saved else ""))
     tracks = {}
     for run in args.runs.split(","):
-        one, e_one, t1 = track(body, seqs, run, 1, init)
-        many, e_many, tn = track(body, seqs, run, args.threads, init)
-        again, e_again, _ = track(body, seqs, run, 1, init)
+        if RUNS[run][2] not in seqs:
+            print(f"{run:11s} (no {RUNS[run][2]} in this data)")
+            continue
+        one, e_one, t1 = track(body, seqs, run, 1, init, args.frames)
+        many, e_many, tn = track(body, seqs, run, args.threads, init, args.frames)
+        again, e_again, _ = track(body, seqs, run, 1, init, args.frames)
         d_many, f_many = compare(one, many)
         d_again, f_again = compare(one, again)
         tracks[run] = one

@@ -4,14 +4,22 @@ numpy's OpenBLAS starts one thread per core in every process; a Hydra joblib swe
 process per core, so on 2 cores 2 processes x 2 BLAS threads fight over 2 cores (measured:
 ``apf_prior`` 2.7x and ``local`` 7.8x slower than with one BLAS thread). Every tracker therefore
 runs inside :func:`thread_budget`, with ``threads: auto`` = cores divided by the number of jobs
-running in parallel (1 in a single run). Results depend on the budget at rounding level (BLAS
-and parallel reductions sum in another order), and the hybrid's annealed search can turn that
-into another track: on the noisy mismatch walk, seed 0, one thread gave 78.5 mm and two threads
-60.6 mm from the same start. ``mocap track`` records the budget in metrics.json
-(``threads``); rerun with the same ``threads=`` to reproduce a run. That is not a guarantee:
-with ``threads=1`` on the mismatch box (seed 0, 21 frames) two runs gave identical poses, one
-differed by 1e-11 and one, run beside other processes, parted from frame 11 and was 0.3 rad off
-by frame 20; the cause of that last one was not found.
+running in parallel (1 in a single run); ``mocap track`` records the budget in metrics.json.
+
+What is reproducible (issue 28; tests/trackers/test_thread_independence.py,
+benchmarks/bench_threads.py): with the same seed, data and settings, a track is bit-identical
+on 1 and 2 threads, in one process or in another, with a cold or a warm numba cache, for the
+local, APF, hybrid and marker trackers (measured on an AMD EPYC with AVX-512, OpenBLAS 0.3.31
+SkylakeX kernels, numba 0.68, OpenCV 5.0). Why: the compiled kernels give each particle-view
+(:mod:`mocap.energy.fused`) or image (the rasterizer) to one thread, which sums in a fixed
+order; BLAS runs on one thread (:func:`thread_budget`: OpenBLAS splits long sums); the distance
+transforms leave Intel IPP out (:mod:`mocap.render.distance`: IPP ran on one OpenCV thread
+only, and its distances changed from call to call by ~1e-5 px, the cause of the earlier
+run-to-run and 1-vs-2-thread differences, e.g. the hybrid's 25.3 / 31.0 mm on the mismatch box).
+Not promised: the same track on another CPU type or with other library builds (OpenBLAS picks
+its kernels per CPU, numba compiles for the host CPU, numpy dispatches SIMD per CPU: rounding
+differs, and an annealed search can turn rounding into another track), nor more than 2
+threads, which this was not measured on.
 """
 
 from __future__ import annotations
@@ -75,9 +83,13 @@ def _numba_threads(n: int | None) -> int | None:
 
 @contextmanager
 def thread_budget(threads: int | None) -> Iterator[int | None]:
-    """Run the body with at most ``threads`` threads in BLAS / OpenMP pools (threadpoolctl),
-    in OpenCV (``cv2.setNumThreads``) and in numba's parallel loops (when numba is loaded).
-    None: leave the libraries' defaults. Restores the previous settings on exit."""
+    """Run the body with at most ``threads`` threads in OpenMP pools (threadpoolctl), in OpenCV
+    (``cv2.setNumThreads``) and in numba's parallel loops (when numba is loaded), and with one
+    BLAS thread whatever ``threads``: OpenBLAS splits a long dot product or matrix-vector
+    product's sum over its threads (1 vs 2 threads: 4e-12 apart for a float64 dot of 1e6, 1e-4
+    for a float32 (100, 49152) @ (49152,)), so BLAS on more threads would make results depend on
+    the budget; the parallel work is numba's (particle-views) and OpenCV's. None: leave the
+    libraries' defaults. Restores the previous settings on exit."""
     if threads is None:
         yield None
         return
@@ -88,7 +100,7 @@ def thread_budget(threads: int | None) -> Iterator[int | None]:
     cv2.setNumThreads(0 if threads == 1 else threads)
     numba_previous = _numba_threads(threads)
     try:
-        with threadpool_limits(limits=threads):
+        with threadpool_limits(limits={"blas": 1, "openmp": threads}):
             yield threads
     finally:
         cv2.setNumThreads(cv_previous)
