@@ -19,6 +19,7 @@ FRAMES = 3
 #: family -> (tracker, settings, sequence kind, init)
 FAMILIES = {
     "local": ("local", {}, "silhouettes", "gt_noise"),
+    "local_sift": ("local", {}, "images", "gt_noise"),        # + SIFT matches (OpenCV's threads)
     "apf": ("apf_25x10", {}, "silhouettes", "gt_noise"),
     "hybrid": ("hybrid", {"apf": {"layers": 3}}, "silhouettes", "gt_noise"),
     "marker": ("marker_apf", {"particles": 20, "layers": 3}, "markers", "tracker"),
@@ -29,6 +30,7 @@ FAMILIES = {
 def sequences(body) -> dict:
     common = {"cameras": "ring4_small", "motion": "walk", "frames": FRAMES, "seed": 0}
     return {"silhouettes": mocap.synthetic_sequence(body, **common),
+            "images": mocap.synthetic_sequence(body, images=True, **common),
             "markers": mocap.synthetic_sequence(body, masks=False, detections={
                 "enabled": True, "labelled": True, "occlusion": False}, **common)}
 
@@ -48,7 +50,8 @@ def run(body, sequences, family: str, threads: int) -> tuple[np.ndarray, dict[st
 def test_one_and_two_threads_give_the_same_track(body, sequences, family):
     chi, values = run(body, sequences, family, 1)
     assert not np.array_equal(chi[1], chi[0]) and not np.array_equal(chi[2], chi[1])    # it tracked
-    expected = {"local": "misalignment/limb_errors/r_knee", "apf": "energy/silhouette",
+    expected = {"local": "misalignment/limb_errors/r_knee", "local_sift": "misalignment/limb_errors/r_knee",
+                "apf": "energy/silhouette",
                 "hybrid": "energy/silhouette", "marker": "energy/markers"}[family]
     assert np.isfinite(values[expected][1:]).any(), sorted(values)
     for threads in (2, 1):
