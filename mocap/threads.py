@@ -14,8 +14,11 @@ SkylakeX kernels, numba 0.68, OpenCV 5.0). Why: the compiled kernels give each p
 (:mod:`mocap.energy.fused`) or image (the rasterizer) to one thread, which sums in a fixed
 order; BLAS runs on one thread (:func:`thread_budget`: OpenBLAS splits long sums); the distance
 transforms leave Intel IPP out (:mod:`mocap.render.distance`: IPP ran on one OpenCV thread
-only, and its distances changed from call to call by ~1e-5 px, the cause of the earlier
-run-to-run and 1-vs-2-thread differences, e.g. the hybrid's 25.3 / 31.0 mm on the mismatch box).
+only, and its distances changed from call to call by ~1e-5 px). Measured with
+``bench_threads.py --folder data/mismatch/box --frames 20 --runs hybrid`` (self-initialised,
+seed 0): before, two 1-thread runs and a 2-thread run parted from frame 0 (up to 1.0 rad
+apart); without IPP but with BLAS on 2 threads, 1 and 2 threads parted at frame 10 (4e-3 rad);
+now all three tracks are equal.
 Not promised: the same track on another CPU type or with other library builds (OpenBLAS picks
 its kernels per CPU, numba compiles for the host CPU, numpy dispatches SIMD per CPU: rounding
 differs, and an annealed search can turn rounding into another track), nor more than 2
