@@ -4,14 +4,25 @@ numpy's OpenBLAS starts one thread per core in every process; a Hydra joblib swe
 process per core, so on 2 cores 2 processes x 2 BLAS threads fight over 2 cores (measured:
 ``apf_prior`` 2.7x and ``local`` 7.8x slower than with one BLAS thread). Every tracker therefore
 runs inside :func:`thread_budget`, with ``threads: auto`` = cores divided by the number of jobs
-running in parallel (1 in a single run). Results depend on the budget at rounding level (BLAS
-and parallel reductions sum in another order), and the hybrid's annealed search can turn that
-into another track: on the noisy mismatch walk, seed 0, one thread gave 78.5 mm and two threads
-60.6 mm from the same start. ``mocap track`` records the budget in metrics.json
-(``threads``); rerun with the same ``threads=`` to reproduce a run. That is not a guarantee:
-with ``threads=1`` on the mismatch box (seed 0, 21 frames) two runs gave identical poses, one
-differed by 1e-11 and one, run beside other processes, parted from frame 11 and was 0.3 rad off
-by frame 20; the cause of that last one was not found.
+running in parallel (1 in a single run); ``mocap track`` records the budget in metrics.json.
+
+What is reproducible (issue 28; tests/trackers/test_thread_independence.py,
+benchmarks/bench_threads.py): with the same seed, data and settings, a track is bit-identical
+on 1 and 2 threads, in one process or in another, with a cold or a warm numba cache, for the
+local, APF, hybrid and marker trackers (measured on an AMD EPYC with AVX-512, OpenBLAS 0.3.31
+SkylakeX kernels, numba 0.68, OpenCV 5.0). Why: the compiled kernels give each particle-view
+(:mod:`mocap.energy.fused`) or image (the rasterizer) to one thread, which sums in a fixed
+order; BLAS runs on one thread (:func:`thread_budget`: OpenBLAS splits long sums); the distance
+transforms leave Intel IPP out (:mod:`mocap.render.distance`: IPP ran on one OpenCV thread
+only, and its distances changed from call to call by ~1e-5 px). Measured with
+``bench_threads.py --folder data/mismatch/box --frames 20 --runs hybrid`` (self-initialised,
+seed 0): before, two 1-thread runs and a 2-thread run parted from frame 0 (up to 1.0 rad
+apart); without IPP but with BLAS on 2 threads, 1 and 2 threads parted at frame 10 (4e-3 rad);
+now all three tracks are equal.
+Not promised: the same track on another CPU type or with other library builds (OpenBLAS picks
+its kernels per CPU, numba compiles for the host CPU, numpy dispatches SIMD per CPU: rounding
+differs, and an annealed search can turn rounding into another track), nor more than 2
+threads, which this was not measured on.
 """
 
 from __future__ import annotations
@@ -32,26 +43,33 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
+#: what ``threads`` may be set to, as the error for another value says it
+THREADS_ALLOWED = "'auto' (cores / parallel jobs), an integer >= 1, or null (the libraries' defaults)"
+
+
 def resolve_threads(setting: int | str | None, parallel_jobs: int = 1) -> int | None:
     """The thread budget from a config value.
 
-    setting: ``"auto"`` (cores // parallel_jobs, at least 1), a positive int, or None / 0
-    (no limit: the libraries' defaults). parallel_jobs: processes running at the same time
-    (a joblib sweep's n_jobs; -1 means one per core, as joblib reads it).
+    setting: ``"auto"`` (cores // parallel_jobs, at least 1), an int >= 1, or None (no limit:
+    the libraries' defaults). Anything else (0, a negative number, another word) raises
+    ValueError naming the setting, its value and what is allowed. parallel_jobs: processes
+    running at the same time (a joblib sweep's n_jobs; -1 means one per core, as joblib reads it).
     """
-    if setting is None or setting == 0 or setting == "none":
+    if setting is None or setting == "none":
         return None
-    cores = available_cores()
     if setting == "auto":
+        cores = available_cores()
         jobs = cores if parallel_jobs is None or parallel_jobs < 0 else max(1, int(parallel_jobs))
         return max(1, cores // min(jobs, cores))
-    try:
-        n = int(setting)
-    except (TypeError, ValueError):
-        raise ValueError(f"threads must be 'auto', a positive int or null, got {setting!r}") from None
-    if n < 0:
-        raise ValueError(f"threads must be 'auto', a positive int or null, got {setting!r}")
-    return n or None
+    n = None
+    if not isinstance(setting, bool | float):
+        try:
+            n = int(setting)
+        except (TypeError, ValueError):
+            pass
+    if n is None or n < 1:
+        raise ValueError(f"setting threads = {setting!r} is out of range: allowed {THREADS_ALLOWED}")
+    return n
 
 
 def _numba_threads(n: int | None) -> int | None:
@@ -68,9 +86,13 @@ def _numba_threads(n: int | None) -> int | None:
 
 @contextmanager
 def thread_budget(threads: int | None) -> Iterator[int | None]:
-    """Run the body with at most ``threads`` threads in BLAS / OpenMP pools (threadpoolctl),
-    in OpenCV (``cv2.setNumThreads``) and in numba's parallel loops (when numba is loaded).
-    None: leave the libraries' defaults. Restores the previous settings on exit."""
+    """Run the body with at most ``threads`` threads in OpenMP pools (threadpoolctl), in OpenCV
+    (``cv2.setNumThreads``) and in numba's parallel loops (when numba is loaded), and with one
+    BLAS thread whatever ``threads``: OpenBLAS splits a long dot product or matrix-vector
+    product's sum over its threads (1 vs 2 threads: 4e-12 apart for a float64 dot of 1e6, 1e-4
+    for a float32 (100, 49152) @ (49152,)), so BLAS on more threads would make results depend on
+    the budget; the parallel work is numba's (particle-views) and OpenCV's. None: leave the
+    libraries' defaults. Restores the previous settings on exit."""
     if threads is None:
         yield None
         return
@@ -81,7 +103,7 @@ def thread_budget(threads: int | None) -> Iterator[int | None]:
     cv2.setNumThreads(0 if threads == 1 else threads)
     numba_previous = _numba_threads(threads)
     try:
-        with threadpool_limits(limits=threads):
+        with threadpool_limits(limits={"blas": 1, "openmp": threads}):
             yield threads
     finally:
         cv2.setNumThreads(cv_previous)

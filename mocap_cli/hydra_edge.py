@@ -108,10 +108,18 @@ def output_dir() -> Path:
 
 
 def parallel_jobs() -> int:
-    """Jobs this run shares the machine with: the launcher's n_jobs in a --multirun."""
+    """Jobs this run shares the machine with: the launcher's n_jobs in a --multirun (joblib), or
+    for the submitit launchers with ``cpus_per_task`` set, the cores over cpus_per_task (so that
+    ``threads=auto`` is cpus_per_task: on SLURM the job's affinity mask already holds that many
+    cores; submitit_local starts every job at once on this machine). -1: one job per core."""
     hc = HydraConfig.get()
     if hc.mode != RunMode.MULTIRUN:
         return 1
+    cpus = hc.launcher.get("cpus_per_task")
+    if cpus:
+        from mocap.threads import available_cores
+
+        return max(1, available_cores() // int(cpus))
     return int(hc.launcher.get("n_jobs", 1) or 1)
 
 
@@ -126,6 +134,10 @@ def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> di
     into the Hydra run directory. check_sequence(seq): raises when the data does not suit the
     command, before any tracking."""
     from mocap.run_folder import run_tracking
+    from mocap.threads import resolve_threads
+
+    jobs = parallel_jobs()
+    resolve_threads(cfg.get("threads", "auto"), jobs)     # a bad value fails here, before any work
 
     def make_sequence(body):
         seq = build(cfg.data, body=body)
@@ -138,5 +150,5 @@ def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> di
         make_body=lambda: build(cfg.body),
         make_sequence=make_sequence,
         make_tracker=lambda **objects: build(cfg.tracker, **objects),
-        parallel_jobs=parallel_jobs(), source=source_checkout(), wrap=wrap, extra=extra,
+        parallel_jobs=jobs, source=source_checkout(), wrap=wrap, extra=extra,
         overrides=list(HydraConfig.get().overrides.task))

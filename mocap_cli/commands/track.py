@@ -12,8 +12,9 @@ from omegaconf import DictConfig
 from mocap_cli.hydra_edge import run_command, track_run
 
 
-def task(cfg: DictConfig) -> None:
-    track_run(cfg)
+def task(cfg: DictConfig) -> dict | None:
+    """One run; returns its metrics (a launcher gathers them: Hydra's JobReturn.return_value)."""
+    return track_run(cfg)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -117,3 +117,14 @@ def test_main_in_process_prints_one_line_and_returns_2(capsys):
         "mocap replay: error: /nonexistent/run: no such run directory or .rrd file"]
     with pytest.raises(FileNotFoundError):
         main(["--debug", "replay", "/nonexistent/run"])
+
+
+@pytest.mark.parametrize("value, shown", [("0", "0"), ("-1", "-1"), ("many", "'many'")])
+def test_bad_thread_budget_one_line_before_any_work(tmp_path, value, shown):
+    (tmp_path / "metrics.json").write_text("{}")      # an earlier run's: a run would clear it first
+    r = mocap("track", "tracker=local", "data=walk_small", f"threads={value}", f"hydra.run.dir={tmp_path}")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    (line,) = lines(r.stderr)
+    assert line == (f"mocap track: error: setting threads = {shown} is out of range: allowed 'auto' "
+                    "(cores / parallel jobs), an integer >= 1, or null (the libraries' defaults)")
+    assert (tmp_path / "metrics.json").read_text() == "{}" and not (tmp_path / "motion.npz").exists()
