@@ -33,16 +33,18 @@ def test_submitit_local_sweep_runs_pickled_jobs_and_ablate_reads_them(tmp_path):
               "hydra.launcher.cpus_per_task=1", "tracker=apf_prior", "data=walk_small",
               "tracker.particles=6", "tracker.layers=2", "frames=2", "seed=0,1", "recording.enabled=false")
     assert r.returncode == 0, r.stderr[-3000:]
-    runs = {int(d.name.rsplit("_", 1)[1]): d for d in sweep.iterdir() if (d / "metrics.json").is_file()}
+    runs = {json.loads((d / "metrics.json").read_text())["seed"]: d             # content-named folders
+            for d in sweep.iterdir() if (d / "metrics.json").is_file()}
     assert sorted(runs) == [0, 1]
     returned = {}
     for result in (sweep / ".submitit").glob("*/*_result.pkl"):     # what the launcher gathered
         status, job = pickle.loads(result.read_bytes())
         assert status == "success"
-        returned[job.hydra_cfg["hydra"]["job"]["num"]] = job.return_value
+        returned[job.return_value["seed"]] = job.return_value
     assert sorted(returned) == [0, 1]
     for num, run in runs.items():
         m = json.loads((run / "metrics.json").read_text())
+        assert run.name.startswith(f"apf_prior_walk_small_s{num}_") and (run / "manifest.json").is_file()
         assert (m["tracker"], m["data"], m["seed"], m["frames"]) == ("apf_prior", "walk_small", num, 2)
         assert m["threads"] == 1                     # threads=auto: cpus_per_task
         assert np.isfinite(m["mpjpe_mm"]) and m["mpjpe_mm"] < 200
