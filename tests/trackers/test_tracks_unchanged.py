@@ -1,9 +1,10 @@
-"""Tracks before and after the settings moved into dataclasses (issue 23, "each default once")
-are equal: each main tracker runs 3 frames of a small synthetic sequence with its preset's
-defaults (small budgets where the search would be slow) and gives the poses saved in
-``tests/data/tracks_before_settings.npz`` by the code before the change, within 1e-8 rad / m. Two fresh processes used to differ by up to ~1e-10 here: Intel IPP's
-distance transform, which OpenCV used on one thread and which differs from call to call; since
-issue 28 mocap.render.distance avoids it and the same code gives the same track on 1 and 2 threads
+"""Tracks before and after the settings moved into dataclasses (issue 23, "each default once") are
+equal: each main tracker runs 3 frames of a small synthetic sequence with its preset's defaults
+(small budgets where the search would be slow) and gives the poses saved in
+``tests/data/tracks_before_settings.npz`` by the code before the change, within 1e-8 rad / m. Two
+fresh processes used to differ by up to ~1e-10 here: Intel IPP's distance transform, which OpenCV
+used on one thread and which differs from call to call; since issue 28 mocap.render.distance avoids
+it and the same code gives the same track on 1 and 2 threads
 (tests/trackers/test_thread_independence.py), and the saved tracks moved by <= 1.7e-10. The
 tolerance stays for other CPUs and library builds, whose sums may be ordered differently.
 
