@@ -6,6 +6,9 @@ fitted to the true joints), frames lost and time per frame; then the ratios the 
 
     mocap track --multirun +sweep=real_motion_test hydra.sweep.dir=multirun/real_motion_test
     python studies/real_motion_claim.py multirun/real_motion_test [--out table.md]
+
+Runs without a manifest.json (written by code before issue 27) are refused unless
+``--accept-unverified`` is given; they are then counted under the table.
 """
 
 from __future__ import annotations
@@ -28,10 +31,10 @@ LABELS = {"local": "local", "hybrid": "hybrid (no prior)", "hybrid_prior": "hybr
           "apf": "APF 100x15, no prior"}
 
 
-def gather(sweep: Path) -> tuple[dict, dict, list]:
+def gather(sweep: Path, accept_unverified: bool = False) -> tuple[dict, dict, list]:
     """-> cells {(tracker, data): {mm: [...], lost: [...], spf: [...], seeds: [...]}},
     oracle {data: mm}, problems."""
-    got = collect(sweep)
+    got = collect(sweep, require_manifest=not accept_unverified)
     cells: dict = defaultdict(lambda: defaultdict(list))
     oracle: dict = {}
     for r in got.runs:
@@ -113,13 +116,20 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("sweep", type=Path)
     p.add_argument("--out", type=Path, default=None)
+    p.add_argument("--accept-unverified", action="store_true",
+                   help="keep runs without a manifest.json (code before issue 27) and count them")
     args = p.parse_args(argv)
-    cells, oracle, problems = gather(args.sweep)
+    cells, oracle, problems = gather(args.sweep, args.accept_unverified)
     if not cells:
         print(f"{args.sweep}: no finished runs", file=sys.stderr)
         return 1
     lines, summary = table(cells, oracle)
     lines += ["", *claim_lines(summary)]
+    unverified = [a for a, b in problems if b.startswith("UNVERIFIED")]
+    problems = [(a, b) for a, b in problems if not b.startswith("UNVERIFIED")]
+    if unverified:
+        lines += ["", f"{len(unverified)} runs without a manifest.json (written before manifests "
+                      "existed) are in the table (--accept-unverified)."]
     if problems:
         lines += ["", "Runs missing or failed:", *[f"- `{a}`: {b}" for a, b in problems]]
     text = "\n".join(lines) + "\n"
