@@ -55,6 +55,8 @@ def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None
             if not hasattr(t, "initial_estimate"):
                 raise ValueError(f"tracker {tracker!r} cannot initialise itself: give an initial pose")
             chi, alpha = t.initial_estimate(frame_of(sequence, 0))
+            if hasattr(t, "refine_initial"):            # the two-cue hybrid's keypoint refinement
+                chi, _ = t.refine_initial(frame_of(sequence, 0), chi, alpha)
         else:
             raise ValueError(f"init must be 'auto', 'gt_noise', 'tracker' or a pose, got {init!r}")
     else:

@@ -13,6 +13,8 @@ from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget
 from mocap.energy.smoothness import smoothness_energy
 from mocap.settings import check
 
+EnergyFn = Callable[[np.ndarray], np.ndarray]
+
 
 @dataclass(frozen=True)
 class EnergyWeights:
@@ -30,21 +32,24 @@ class EnergyWeights:
 
 
 class FrameEnergy:
-    """E bound to one frame's observation and prediction: callable (P, D) -> (P,)."""
+    """E bound to one frame's observation and prediction: callable (P, D) -> (P,).
+    ``markers``: a further term (P, D) -> (P,), already weighted, added as ``"markers"`` (the
+    two-cue hybrid's marker likelihood, :mod:`mocap.trackers.keypoint_cue`); None: none."""
 
     def __init__(self, weights: EnergyWeights, silhouette: SilhouetteEnergy | None,
                  target: SilhouetteTarget | None, predicted: np.ndarray | None,
-                 prior: PosePrior | None, dof_mask: np.ndarray | None = None):
+                 prior: PosePrior | None, dof_mask: np.ndarray | None = None,
+                 markers: EnergyFn | None = None):
         if weights.silhouette and (silhouette is None or target is None):
             raise ValueError("the silhouette term is on but there is no silhouette observation")
         if weights.prior and prior is None:
             raise ValueError("the prior term is on but no pose prior was given")
         self.w, self.sil, self.target, self.pred, self.prior = weights, silhouette, target, predicted, prior
-        self.dof_mask = dof_mask
+        self.dof_mask, self.markers = dof_mask, markers
         self.evaluations = 0
 
     def terms(self, chi: np.ndarray) -> dict[str, np.ndarray]:
-        """Weighted terms, each (P,): silhouette, smoothness, prior (E_prior), learned."""
+        """Weighted terms, each (P,): silhouette, smoothness, prior (E_prior), learned, markers."""
         P = len(chi)
         self.evaluations += P
         out = {}
@@ -57,6 +62,8 @@ class FrameEnergy:
         if self.w.prior:
             for k, v in self.prior.terms(chi).items():
                 out[k] = self.w.prior * v
+        if self.markers is not None:
+            out["markers"] = self.markers(chi)
         return out
 
     def __call__(self, chi: np.ndarray) -> np.ndarray:
@@ -69,5 +76,3 @@ class FrameEnergy:
             raise FloatingPointError(f"non-finite energy values per term: {bad}")
         return total
 
-
-EnergyFn = Callable[[np.ndarray], np.ndarray]

@@ -9,7 +9,7 @@ import numpy as np
 from mocap.body.model import ShapedBody
 from mocap.local import solver
 from mocap.local.jacobian import dof_frames
-from mocap.local.solver import PointLines, gauss_newton_step
+from mocap.local.solver import PointLines, gauss_newton_step, merge
 
 Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]
 
@@ -17,7 +17,8 @@ Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]
 def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, iterations: int = 5,
                   tolerance: float = 1e-4, damping: float = 1e-4, min_correspondences: int = 12,
                   free: np.ndarray | None = None,
-                  energy_tolerance: float = 0.0) -> tuple[np.ndarray, dict]:
+                  energy_tolerance: float = 0.0,
+                  extra: Callable[[np.ndarray], PointLines] | None = None) -> tuple[np.ndarray, dict]:
     """Iterate: pose the body, find correspondences, solve the linearised system, update.
 
     Stops after ``iterations``, when the update is below ``tolerance`` (rad / m), or when the
@@ -25,7 +26,8 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
     correspondences) by less than ``energy_tolerance`` x its value: then this iteration's
     update is still applied and the loop ends (``diag["stopped"]`` says why). An iteration
     whose system cannot be solved skips its update and says why in the diagnostics; the
-    pose returned is always finite.
+    pose returned is always finite. ``extra``: pose (D,) -> correspondences solved beside
+    ``correspond``'s (e.g. keypoints, :mod:`mocap.local.keypoints`), found anew each iteration.
     """
     if solver.LEGACY:
         energy_tolerance = 0.0
@@ -36,6 +38,8 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
     for it in range(iterations):
         verts = shaped.pose(chi).vertices[0].astype(np.float64)
         corr, info = correspond(verts)
+        if extra is not None:
+            corr = merge([corr, extra(chi)])
         diag["correspondences"].append(len(corr))
         diag.setdefault("per_iteration", []).append(info)
         w, q, _ = dof_frames(body, shaped.axes, shaped.rest_joints, chi)

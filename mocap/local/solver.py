@@ -39,6 +39,16 @@ class PointLines:
         return len(self.points)
 
 
+def merge(parts: list[PointLines]) -> PointLines:
+    """The correspondences of ``parts`` in one set (empty parts dropped)."""
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        z = np.zeros((0, 3))
+        return PointLines(z, np.zeros(0, int), z, z, np.zeros(0))
+    return PointLines(*(np.concatenate([getattr(p, f) for p in parts])
+                        for f in ("points", "limbs", "d", "m", "weights")))
+
+
 @dataclass(frozen=True)
 class StepResult:
     chi: np.ndarray

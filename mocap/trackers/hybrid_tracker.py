@@ -5,7 +5,13 @@ local result), and a short local refinement follows. The searched pose replaces 
 only where it lowers the frame's silhouette energy E_S, so the fallback cannot make a frame
 worse by the measure the tracker is judged on (``Misalignment.apf_accepted``). With
 ``patrol`` = N, every N-th frame on which nothing was flagged one limb chain in turn is
-searched all the same (``Misalignment.patrol``)."""
+searched all the same (``Misalignment.patrol``).
+
+With ``keypoints.weight`` > 0 (``hybrid_kp``) the frame's 2D keypoint detections are a second
+cue (:mod:`mocap.trackers.keypoint_cue`): correspondences in the local optimiser, the marker
+likelihood beside E_S in the search and its acceptance test, a limb test in the
+misalignment check, and a search of every limb chain refining the self-initialisation's pose
+(:meth:`HybridTracker.refine_initial`)."""
 
 from __future__ import annotations
 
@@ -26,6 +32,7 @@ from mocap.trackers.anneal import anneal, perturb
 from mocap.trackers.apf_tracker import diffusion_std, internal_scale
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
+from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
 from mocap.trackers.tracker_settings import HybridSettings
 
@@ -110,6 +117,65 @@ class HybridTracker(LocalTracker):
         self.patrol_agreement, self.patrol_margin = float(a.patrol_agreement), float(a.patrol_margin)
         self.chains = limb_chains(body)
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
+        self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
+
+    def check_sequence(self, seq) -> None:
+        """With the keypoint cue on, a ValueError before any work when ``seq`` has no detections."""
+        if self.cue is not None:
+            check_detections(seq, self.name)
+
+    def refine_initial(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, dict]:
+        """The self-initialisation's pose (D,) refined with the keypoint cue on ``frame``: every
+        limb chain in turn searched (as a misaligned limb is, its pose kept where the frame's
+        silhouette + marker energy falls), then the local optimiser (kept where that energy
+        falls too); (pose, report). Without the
+        cue (or with ``keypoints.init`` off, or no detections): the pose unchanged and {}."""
+        on = self.cue is not None and self.tracker_settings.keypoints.init
+        obs = self.cue.observe(frame) if on else None
+        if obs is None:
+            return chi, {}
+        self.initialize(chi, alpha)
+        before = float(self.two_cue_energy(frame, obs, chi[None])[0])
+        for _, limbs in self.chains:
+            flagged = np.zeros(self.body.num_joints, bool)
+            flagged[limbs] = True
+            free = self.detector.free_dofs(LimbCheck(flagged, [], {}))
+            found, _, _ = self.search(frame, chi, chi, free, obs)
+            e = self.two_cue_energy(frame, obs, np.stack([chi, found]))
+            if e[1] < e[0]:
+                chi = found
+        local, _ = self.local_step(frame, chi, extra=self.keypoint_lines(obs))
+        e = self.two_cue_energy(frame, obs, np.stack([chi, local]))
+        chi, after = (local, float(e[1])) if e[1] < e[0] else (chi, float(e[0]))
+        return chi, {"keypoint_refine": {"energy_before": before, "energy_after": after}}
+
+    def two_cue_energy(self, frame: Frame, obs, chi: np.ndarray) -> np.ndarray:
+        """(P, D) -> (P,): the frame's mean per-view E_S plus the scaled marker likelihood."""
+        target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        e = self.sil.per_view(chi, target)[:, target.valid].mean(axis=1)
+        return e + self.cue.scaled(self.cue.energy(self.shaped, obs), chi)
+
+    def keypoint_lines(self, obs):
+        """The local optimiser's ``extra`` correspondences of this frame (None: no cue)."""
+        if obs is None:
+            return None
+        return lambda chi: self.cue.lines(self.shaped, chi, obs)
+
+    def search(self, frame: Frame, chi: np.ndarray, predicted: np.ndarray, free: np.ndarray, obs=None):
+        """The APF over the ``free`` DOFs from ``chi``: (pose, anneal trace, energy)."""
+        target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        markers = None
+        if obs is not None:
+            marker_energy = self.cue.energy(self.shaped, obs)
+            markers = lambda x: self.cue.scaled(marker_energy, x)       # noqa: E731
+        energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior, markers=markers)
+        chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
+                              propagate=RestartFirstLayer(self.restart, free, self.library,
+                                                          self.restart_from_library),
+                              free=free,
+                              keep_particles=self.keep_particles,
+                              root_point=self.shaped.rest_joints[0])
+        return chi_apf, apf, energy
 
     def patrol_check(self, frame: Frame, check: LimbCheck) -> LimbCheck | None:
         """On every ``patrol``-th frame whose check flagged nothing, the check with one limb chain
@@ -132,11 +198,17 @@ class HybridTracker(LocalTracker):
         if self.shaped is None:
             raise RuntimeError("initialize() the tracker before step()")
         t0 = time.perf_counter()
+        obs = self.cue.observe(frame) if self.cue is not None else None
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
-        chi, local = self.local_step(frame, predicted)
+        chi, local = self.local_step(frame, predicted, extra=self.keypoint_lines(obs))
         t1 = time.perf_counter()
         verts = self.shaped.pose(chi).vertices[0]
         check = self.detector(verts, frame.masks)
+        if obs is not None:
+            flagged = check.flagged | self.cue.misaligned(self.shaped, chi, obs)
+            if (flagged != check.flagged).any():
+                check = dataclasses.replace(check, flagged=flagged,
+                                            names=[self.body.joint_names[j] for j in np.flatnonzero(flagged)])
         t2 = time.perf_counter()
         patrol = self.patrol_check(frame, check)
         decision = Misalignment.of(check, apf_called=bool(check.names) or patrol is not None,
@@ -145,23 +217,19 @@ class HybridTracker(LocalTracker):
         timings = {"local": t1 - t0, "misalignment": t2 - t1}
         if decision.apf_called:
             free = self.detector.free_dofs(patrol or check)
-            target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
-            energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior)
             chi_local = chi
-            chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
-                                  propagate=RestartFirstLayer(self.restart, free, self.library,
-                                                              self.restart_from_library),
-                                  free=free,
-                                  keep_particles=self.keep_particles,
-                                  root_point=self.shaped.rest_joints[0])
+            chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs)
+            target = energy.target
             t3 = time.perf_counter()
             refine_iters, self.iterations = self.iterations, self.refine_iterations
             try:
-                chi, refine = self.local_step(frame, chi_apf)
+                chi, refine = self.local_step(frame, chi_apf, extra=self.keypoint_lines(obs))
             finally:
                 self.iterations = refine_iters
             per_view = self.sil.per_view(np.stack([chi_local, chi]), target)[:, target.valid]
             e_local, e_apf = per_view.mean(axis=1)
+            if obs is not None:         # the two cues decide together
+                e_local, e_apf = np.array([e_local, e_apf]) + energy.markers(np.stack([chi_local, chi]))
             accepted = bool(e_apf < e_local)
             if patrol is not None:
                 # a patrolled limb was not flagged: keep the search's pose only where it
@@ -181,5 +249,7 @@ class HybridTracker(LocalTracker):
             if accepted:
                 verts = self.shaped.pose(chi).vertices[0]
         chi, shape = self.finish_step(frame, chi, verts, not check.names, timings)
+        if obs is not None:
+            self.cue.learn_offsets(self.shaped, chi, obs)
         return Estimate(chi=chi, alpha=self.shaped.alpha,
                         diagnostics=dataclasses.replace(report, shape=shape, timings=timings))

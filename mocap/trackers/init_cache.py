@@ -51,7 +51,20 @@ def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = No
                      ) -> tuple[np.ndarray, np.ndarray, dict]:
     """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
     the computation, also on a cache hit), cached (bool), and the initialiser's hypotheses and
-    margin where it reports them."""
+    margin where it reports them. A tracker with ``refine_initial(frame, chi, alpha) -> (chi,
+    report)`` (the two-cue hybrid) refines the pose afterwards, outside the cache (whose key
+    describes the initialiser only); a non-empty report joins info with its seconds."""
+    chi, alpha, info = _cached_estimate(tracker, frame, cache)
+    refine = getattr(tracker, "refine_initial", None)
+    if refine is not None:
+        t = time.perf_counter()
+        chi, report = refine(frame, chi, alpha)
+        if report:
+            info = {**info, **report, "refine_seconds": time.perf_counter() - t}
+    return chi, alpha, info
+
+
+def _cached_estimate(tracker, frame: Frame, cache) -> tuple[np.ndarray, np.ndarray, dict]:
     if cache is None or frame.masks is None or getattr(tracker, "init_settings", None) is None:
         return _compute(tracker, frame, None)       # only what the key describes is cached
     path = Path(cache) / f"{_key(tracker, frame)}.npz"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 
@@ -15,22 +16,13 @@ from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.misalignment import MisalignmentDetector
 from mocap.local.optimize import optimize_pose
 from mocap.local.sift import SiftTracker
-from mocap.local.solver import PointLines
+from mocap.local.solver import PointLines, merge  # noqa: F401  (merge: re-exported)
 from mocap.settings import fields_of, with_overrides
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
 from mocap.trackers.tracker_settings import LocalSettings, LocalStepSettings
-
-
-def merge(parts: list[PointLines]) -> PointLines:
-    parts = [p for p in parts if len(p)]
-    if not parts:
-        z = np.zeros((0, 3))
-        return PointLines(z, np.zeros(0, int), z, z, np.zeros(0))
-    return PointLines(*(np.concatenate([getattr(p, f) for p in parts])
-                        for f in ("points", "limbs", "d", "m", "weights")))
 
 
 class LocalTracker(SilhouetteInitialisation):
@@ -116,9 +108,10 @@ class LocalTracker(SilhouetteInitialisation):
         self.history = (self.history + [chi])[-3:]
         return chi, shape
 
-    def local_step(self, frame: Frame, start: np.ndarray,
-                   free: np.ndarray | None = None) -> tuple[np.ndarray, LocalTrace]:
-        """Optimise from ``start`` on this frame; the trace holds the correspondence counts."""
+    def local_step(self, frame: Frame, start: np.ndarray, free: np.ndarray | None = None,
+                   extra: Callable[[np.ndarray], PointLines] | None = None) -> tuple[np.ndarray, LocalTrace]:
+        """Optimise from ``start`` on this frame; the trace holds the correspondence counts.
+        ``extra``: pose (D,) -> more correspondences beside the contours' (the hybrid's keypoints)."""
         if frame.masks is None:
             raise ValueError(f"frame {frame.index}: the local tracker needs silhouette masks")
         obs = observed_contours(frame.masks)
@@ -137,7 +130,8 @@ class LocalTracker(SilhouetteInitialisation):
             return corr, info
 
         chi, opt = optimize_pose(self.shaped, start, correspond, self.iterations, self.tolerance,
-                                 self.damping, free=free, energy_tolerance=self.energy_tolerance)
+                                 self.damping, free=free, energy_tolerance=self.energy_tolerance,
+                                 extra=extra)
         return chi, LocalTrace.from_optimizer(opt, sift_info)
 
     def step(self, frame: Frame) -> Estimate:

@@ -3,7 +3,8 @@ preset's differences applied) and the function that builds the tracker from it.
 
 ``mocap_cli/conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
 differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``, ``apf_prior_real``
-``apf_prior``; ``hybrid_prior`` composes ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``);
+``apf_prior``; ``hybrid_prior`` composes ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``,
+``hybrid_kp`` ``hybrid``);
 ``tests/trackers/test_settings.py`` checks that both give the same settings.
 """
 
@@ -38,6 +39,11 @@ _HYBRID_PRIOR = replace(HybridSettings(),
                         apf=replace(_HYBRID_APF, energy=replace(_HYBRID_APF.energy, prior=1.0)))
 
 
+#: the two-cue hybrid's keypoint weight (one keypoint correspondence against one contour
+#: correspondence), chosen on the real-motion benchmark's dev split (docs/results/two_cue_hybrid.md)
+KEYPOINT_WEIGHT = 20.0
+_HYBRID_KP = replace(HybridSettings(), keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT))
+
 #: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
 #: (docs/results/real_motion.md): its narrow sigma makes -log p steep
 REAL_PRIOR_WEIGHT = 0.05
@@ -60,6 +66,7 @@ PRESETS: dict[str, Preset] = {
     "hybrid_prior_real": Preset(factory.build_hybrid_tracker,
                                 replace(_HYBRID_PRIOR, apf=replace(_HYBRID_PRIOR.apf,
                                                                    prior=_real(_HYBRID_PRIOR.apf.prior)))),
+    "hybrid_kp": Preset(factory.build_hybrid_tracker, _HYBRID_KP),
     "marker_apf": Preset(factory.build_marker_tracker, MarkerSettings()),
 }
 

@@ -26,6 +26,7 @@ from mocap.local.sift import SiftTracker
 from mocap.settings import check, fields_of, signature_settings
 from mocap.trackers.anneal import APFSettings
 from mocap.trackers.initialization import InitSettings
+from mocap.trackers.keypoint_cue import KeypointSettings
 from mocap.trackers.shape_search import ShapeRefinement
 
 #: the first-layer diffusion std: (twist v (m), twist omega (rad), joint angles (rad))
@@ -192,10 +193,13 @@ def _hybrid_local() -> LocalStepSettings:
 @dataclass(frozen=True)
 class HybridSettings:
     """``hybrid``, the full system of Zhang et al. 2013: the local step every frame
-    (``local``), the APF over the misaligned limbs (``apf``), the self-initialisation's
-    settings and ``keep_particles``."""
+    (``local``), the APF over the misaligned limbs (``apf``), the 2D keypoint cue
+    (``keypoints``; its ``weight`` 0: off, the paper's silhouette-only system; ``hybrid_kp``:
+    on, :mod:`mocap.trackers.keypoint_cue`), the self-initialisation's settings and
+    ``keep_particles``."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = HybridSearchSettings()
+    keypoints: KeypointSettings = KeypointSettings()
     initialization: InitSettings = InitSettings()
     keep_particles: bool = False

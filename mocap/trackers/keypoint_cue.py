@@ -1,0 +1,174 @@
+"""The hybrid's second cue: 2D keypoint detections beside the silhouettes (``hybrid_kp``).
+
+One frame's detections are arranged per landmark and view as the marker tracker arranges
+them (:func:`~mocap.energy.markers.arrange_detections`, the landmark set of
+:func:`~mocap.body.catalogue.make_landmark_set`), and enter the hybrid three times:
+
+- the local optimiser: the landmarks' point-line correspondences to their detections' rays,
+  robust and confidence-weighted (:func:`mocap.local.keypoints.keypoint_lines`), each
+  weighted ``weight`` against one contour correspondence;
+- the APF and its acceptance test: the marker likelihood (:class:`~mocap.energy.markers.MarkerEnergy`,
+  divided by tau^2 so that it lies in [0, 1]) x ``energy`` beside E_S;
+- the misalignment test: a limb chain holding a landmark whose median reprojection distance
+  over the views that see candidates for it exceeds ``flag`` x the gate is misaligned.
+
+The keypoint-to-landmark offsets are learned as the marker tracker learns them
+(:mod:`mocap.trackers.markers.offsets`). With ``weight`` = 0 the cue is off and the hybrid is
+today's, bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocap.body.catalogue import make_landmark_set
+from mocap.body.landmarks import LandmarkSet
+from mocap.body.model import BodyModel, ShapedBody
+from mocap.cameras import Rig, fundamental_matrices, view_rigs
+from mocap.energy.markers import (
+    MarkerEnergy,
+    MarkerLikelihood,
+    MarkerObservation,
+    arrange_detections,
+    reprojection_errors,
+)
+from mocap.local.keypoints import keypoint_lines
+from mocap.local.misalignment import limb_chains
+from mocap.local.solver import PointLines
+from mocap.settings import check
+from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
+from mocap.trackers.markers.startup import pinhole_rig, triangulate_candidates
+
+
+@dataclass(frozen=True)
+class KeypointSettings:
+    """The hybrid's keypoint cue (module docstring): ``weight`` of one keypoint correspondence
+    against one contour correspondence in the local optimiser (0: the cue is off, today's
+    hybrid); ``energy``: the weight of the marker likelihood (in [0, 1]) beside E_S in the APF
+    and its acceptance test; ``flag``: a landmark further than this share of the gate from its
+    detections (median over views) makes its limb chain misaligned (0: off); ``gate``: the
+    outlier gate tau as a fraction of the image diagonal (as the marker tracker's);
+    ``use_confidence``, ``min_confidence``, ``landmarks`` (``auto``: every detection label the
+    catalogue knows) and the learned ``offsets`` as the marker tracker's; ``init``: refine the
+    self-initialisation's pose with the cue (a search of every limb chain, then local steps)."""
+
+    weight: float = 0.0
+    energy: float = 1.0
+    flag: float = 0.5
+    gate: float = 0.04
+    use_confidence: bool = True
+    min_confidence: float = 0.0
+    landmarks: str | tuple = "auto"
+    offsets: OffsetLearning = OffsetLearning()
+    init: bool = True
+
+    def __post_init__(self) -> None:
+        check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")
+        check(self, "energy", self.energy >= 0, ">= 0")
+        check(self, "flag", 0.0 <= self.flag <= 1.0, "[0, 1] of the gate (0: off)")
+        check(self, "gate", 0.0 < self.gate <= 1.0, "(0, 1], a fraction of the image diagonal")
+        check(self, "min_confidence", 0.0 <= self.min_confidence <= 1.0, "[0, 1]")
+        check(self, "landmarks", isinstance(self.landmarks, str | tuple),
+              "a landmark set's name (auto) or a list of landmark names / entries")
+
+    @property
+    def enabled(self) -> bool:
+        return self.weight > 0
+
+
+def check_detections(seq, name: str) -> None:
+    """The one-line error, before any work, when ``seq`` has no 2D detections for the cue."""
+    det = getattr(seq, "detections", None)
+    if det is None or not len(det):
+        raise ValueError(f"{name} uses 2D keypoint detections (tracker.keypoints.weight > 0), but sequence "
+                         f"{seq.name!r} has none: use data with detections (e.g. data=real_bow_tall_man) "
+                         "or tracker.keypoints.weight=0 (tracker=hybrid)")
+
+
+class KeypointCue:
+    """The cue's state for one tracker: the landmark set (made from the first frame's labels),
+    the cameras without distortion, the learned offsets."""
+
+    def __init__(self, body: BodyModel, rig: Rig, settings: KeypointSettings):
+        self.body, self.rig, self.settings = body, rig, settings
+        self.pinhole = pinhole_rig(rig)
+        self._views = view_rigs(rig)
+        self.F = fundamental_matrices(self.pinhole)
+        diagonal = float(np.hypot(*np.asarray(rig.sizes, np.float64).mean(axis=0)))
+        self.gate_px = settings.gate * diagonal
+        self.likelihood = MarkerLikelihood(gate_px=self.gate_px, coherence_weight=0.0,
+                                           use_confidence=settings.use_confidence)
+        self.landmarks: LandmarkSet | None = None
+        self.offsets: np.ndarray | None = None
+        self._samples: list[np.ndarray] = []
+        self._chain_of = np.full(body.num_joints, -1)               # joint -> limb chain index
+        self.chains = limb_chains(body)
+        for i, (_, limbs) in enumerate(self.chains):
+            self._chain_of[limbs] = i
+
+    def observe(self, frame) -> MarkerObservation | None:
+        """The frame's detections arranged per landmark and view (None: the frame has none)."""
+        det = frame.detections
+        if det is None or not len(det):
+            return None
+        if self.landmarks is None:
+            self.landmarks = make_landmark_set(self.body, self.settings.landmarks, det.labels)
+        return arrange_detections(det, self.landmarks.names, self.rig, self.settings.min_confidence,
+                                  views=self._views)
+
+    def rest(self, shaped: ShapedBody) -> np.ndarray:
+        """Rest landmarks (L, 3) of the shaped body, with the learned offsets."""
+        rest = np.asarray(self.landmarks.rest_points(shaped), np.float64)
+        return rest if self.offsets is None else rest + self.offsets
+
+    def points(self, shaped: ShapedBody, chi: np.ndarray) -> np.ndarray:
+        """Posed landmarks (L, 3) of one pose chi (D,)."""
+        G = shaped.pose(np.asarray(chi, np.float64)[None]).transforms.astype(np.float64)
+        return self.landmarks.from_transforms(G, self.rest(shaped))[0]
+
+    def lines(self, shaped: ShapedBody, chi: np.ndarray, obs: MarkerObservation) -> PointLines:
+        """The local optimiser's keypoint correspondences at pose chi (D,)."""
+        s = self.settings
+        return keypoint_lines(self.points(shaped, chi), self.landmarks.joint, obs, self.pinhole,
+                              self.gate_px, s.weight, s.use_confidence)
+
+    def energy(self, shaped: ShapedBody, obs: MarkerObservation) -> MarkerEnergy:
+        """The marker likelihood of this frame (pixels^2; :meth:`scaled` brings it to [0, 1])."""
+        return MarkerEnergy(self.landmarks, shaped, self.pinhole, obs, self.likelihood, F=self.F,
+                            rest_offsets=self.offsets)
+
+    def scaled(self, energy: MarkerEnergy, chi: np.ndarray) -> np.ndarray:
+        """(P, D) -> (P,) ``energy`` x the marker likelihood / tau^2."""
+        return self.settings.energy * energy(np.atleast_2d(chi)) / self.gate_px**2
+
+    def misaligned(self, shaped: ShapedBody, chi: np.ndarray, obs: MarkerObservation) -> np.ndarray:
+        """(J,) bool: the limbs of every chain holding a landmark whose median reprojection
+        distance (capped at the gate) over the views with candidates exceeds ``flag`` x gate."""
+        flagged = np.zeros(self.body.num_joints, bool)
+        if not self.settings.flag:
+            return flagged
+        err = reprojection_errors(self.points(shaped, chi), obs, self.pinhole, self.gate_px)   # (L, C)
+        seen = obs.valid.any(axis=2)
+        err = np.where(seen, np.nan_to_num(err, nan=self.gate_px), np.nan)
+        with np.errstate(all="ignore"):
+            med = np.nanmedian(np.where(seen.sum(axis=1, keepdims=True) >= 2, err, np.nan), axis=1)
+        bad = np.nan_to_num(med, nan=0.0) > self.settings.flag * self.gate_px
+        for c in np.unique(self._chain_of[self.landmarks.joint[bad]]):
+            if c >= 0:
+                flagged[self.chains[c][1]] = True
+        return flagged
+
+    def learn_offsets(self, shaped: ShapedBody, chi: np.ndarray, obs: MarkerObservation) -> None:
+        """One frame's residuals for the offsets (:mod:`mocap.trackers.markers.offsets`);
+        the offsets are set once ``offsets.frames`` frames are in."""
+        s = self.settings.offsets
+        if not s.frames or self.offsets is not None:
+            return
+        X, _ = triangulate_candidates(self.pinhole, obs, self.gate_px)
+        G = shaped.pose(np.asarray(chi, np.float64)[None]).transforms[0].astype(np.float64)
+        rest = np.asarray(self.landmarks.rest_points(shaped), np.float64)
+        self._samples.append(local_residuals(G[self.landmarks.joint], X, rest))
+        if len(self._samples) >= s.frames:
+            self.offsets = robust_offsets(np.stack(self._samples), s)
