@@ -26,13 +26,15 @@ FAST = {
     "local": (["tracker.iterations=2"], 0),
     "hybrid": (["tracker.apf.particles=8", "tracker.apf.layers=2", "tracker.local.iterations=2"], None),
     "marker_apf": (["tracker.particles=8", "tracker.layers=2"], 16),
+    "hybrid_kp": (["tracker.apf.particles=8", "tracker.apf.layers=2", "tracker.local.iterations=2",
+                   "data.masks=true"], None),
 }
 # marker trackers need 2D detections
-DATA = {"marker_apf": "walk_markers_small"}
+DATA = {"marker_apf": "walk_markers_small", "hybrid_kp": "walk_markers_small"}   # + masks
 
 
 def fast_overrides(tracker: str) -> tuple[list[str], int | None]:
-    family = next(f for f in ("apf", "hybrid", tracker) if tracker.startswith(f))
+    family = next(f for f in ("apf", "hybrid_kp", "hybrid", tracker) if tracker.startswith(f))
     return FAST[family]
 
 

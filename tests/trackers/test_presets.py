@@ -21,7 +21,7 @@ FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "lay
         "apf_prior_real": {"particles": 6, "layers": 2},
         "apf_25x10": {"particles": 6, "layers": 2}, "local": {"iterations": 2},
         **{h: {"local": {"iterations": 2}, "apf": {"particles": 6, "layers": 2}}
-           for h in ("hybrid", "hybrid_prior", "hybrid_prior_real")},
+           for h in ("hybrid", "hybrid_prior", "hybrid_prior_real", "hybrid_kp")},
         "marker_apf": {"particles": 8, "layers": 2}}
 
 
@@ -37,7 +37,9 @@ def sequences(body):
     markers = make_synthetic(body, rig, motion="walk", frames=3, fps=25, seed=0, masks=False,
                              images=False, detections={"enabled": True, "labelled": True,
                                                        "occlusion": False})
-    return sil, markers
+    both = make_synthetic(body, rig, motion="walk", frames=3, fps=25, seed=0, images=False,
+                          detections={"enabled": True, "labelled": True, "occlusion": False})
+    return sil, markers, both
 
 
 def test_every_tracker_config_has_a_python_preset():
@@ -46,7 +48,7 @@ def test_every_tracker_config_has_a_python_preset():
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_config_tracker_equals_python_api_tracker(name, body, sequences):
-    seq = sequences[1] if name == "marker_apf" else sequences[0]
+    seq = {"marker_apf": sequences[1], "hybrid_kp": sequences[2]}.get(name, sequences[0])
     with initialize_config_dir(str(CONF), version_base="1.3"):
         cfg = compose("track", overrides=[f"tracker={name}", *flat(FAST[name])])
     from_config = instantiate(cfg.tracker, _partial_=True)(body=body, rig=seq.rig,

@@ -131,7 +131,7 @@ def test_every_key_is_overridable_without_plus(name, body, rig):
              "marker_apf": ["tracker.layers=3", "tracker.init.particles=50", "tracker.refine.gate_px=5.0",
                             "tracker.offsets.frames=2"]}
     family = {"apf_prior": "apf", "apf_prior_real": "apf", "apf_25x10": "apf",
-              "hybrid_prior": "hybrid", "hybrid_prior_real": "hybrid"}.get(name, name)
+              "hybrid_prior": "hybrid", "hybrid_prior_real": "hybrid", "hybrid_kp": "hybrid"}.get(name, name)
     cfg = compose_tracker(name, picks[family])
     settings = build(cfg, body, rig).tracker_settings
     for override in picks[family]:
