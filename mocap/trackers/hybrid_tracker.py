@@ -22,6 +22,7 @@ import numpy as np
 
 from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel
+from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
@@ -32,6 +33,7 @@ from mocap.trackers.anneal import anneal, perturb
 from mocap.trackers.apf_tracker import diffusion_std, internal_scale
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
+from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
 from mocap.trackers.tracker_settings import HybridSettings
@@ -80,12 +82,21 @@ class RestartFirstLayer:
         return out
 
 
+def turned(shaped, chi: np.ndarray) -> np.ndarray:
+    """The pose (D,) turned 180 degrees about the vertical (z) through its pelvis."""
+    T = se3_exp(np.asarray(chi[:6], np.float64))
+    pelvis = T[:3, :3] @ np.asarray(shaped.rest_joints[0], np.float64) + T[:3, 3]
+    turn = np.diag([-1.0, -1.0, 1.0, 1.0])
+    turn[:2, 3] = 2.0 * pelvis[:2]
+    out = np.array(chi, np.float64)
+    out[:6] = se3_log(turn @ T)
+    return out
+
+
 def library_poses(body: BodyModel, angles: np.ndarray, dof_names, mirrored: bool = True) -> np.ndarray:
     """Joint angles (T, n) named ``dof_names`` (a motion library: the pose prior's training
     poses) as rows (T, D) of the body's pose vector, NaN where the library has no value; with
     ``mirrored``, each pose also with its limbs swapped left/right (2T rows)."""
-    from mocap.trackers.initialization import mirror_map
-
     rows = np.full((len(angles), body.num_dofs), np.nan)
     for i, n in enumerate(dof_names):
         if n in body.dof_names:
@@ -125,17 +136,26 @@ class HybridTracker(LocalTracker):
             check_detections(seq, self.name)
 
     def refine_initial(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, dict]:
-        """The self-initialisation's pose (D,) refined with the keypoint cue on ``frame``: every
-        limb chain in turn searched (as a misaligned limb is, its pose kept where the frame's
-        silhouette + marker energy falls), then the local optimiser (kept where that energy
-        falls too); (pose, report). Without the
-        cue (or with ``keypoints.init`` off, or no detections): the pose unchanged and {}."""
+        """The self-initialisation's pose (D,) refined with the keypoint cue on ``frame``.
+        Silhouettes hardly tell front from back or left from right; keypoints do: the pose, its
+        limbs swapped left/right and both turned 180 degrees about the vertical through the
+        pelvis are each fitted by the local optimiser with the keypoints, and the one of lowest
+        silhouette + marker energy goes on; then every limb chain in turn is searched (as a
+        misaligned limb is, its pose kept where that energy falls), and the local optimiser
+        ends (kept where it falls too). Returns (pose, report); without the cue (or with
+        ``keypoints.init`` off, or no detections in the frame): the pose unchanged and {}."""
         on = self.cue is not None and self.tracker_settings.keypoints.init
         obs = self.cue.observe(frame) if on else None
         if obs is None:
             return chi, {}
         self.initialize(chi, alpha)
         before = float(self.two_cue_energy(frame, obs, chi[None])[0])
+        perm, sign = mirror_map(self.body)
+        starts = [chi, swap_limbs(chi, perm, sign, self.body.limits)]
+        starts += [turned(self.shaped, c) for c in starts]
+        fitted = np.stack([self.local_step(frame, c, extra=self.keypoint_lines(obs))[0] for c in starts])
+        e = self.two_cue_energy(frame, obs, np.vstack([chi[None], fitted]))
+        chi = np.vstack([chi[None], fitted])[int(np.argmin(e))]
         for _, limbs in self.chains:
             flagged = np.zeros(self.body.num_joints, bool)
             flagged[limbs] = True

@@ -7,6 +7,7 @@ import pytest
 
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
+from mocap.trackers.hybrid_tracker import turned
 from mocap.trackers.presets import PRESETS, make_tracker
 from mocap.trackers.run import frame_of, track_sequence
 
@@ -91,3 +92,14 @@ def test_data_without_detections_is_refused_before_any_work(body, seq):
     with pytest.raises(ValueError, match=r"hybrid_kp uses 2D keypoint detections .* has none"):
         t.check_sequence(no_det)
     make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0)).check_sequence(no_det)
+
+
+def test_turned_keeps_the_pelvis_and_faces_the_other_way(body, seq):
+    shaped = body.shaped(seq.gt.alpha)
+    chi = seq.gt.chi[2].astype(np.float64)
+    back = turned(shaped, chi)
+    a, b = (shaped.joints(c[None])[0].astype(np.float64) for c in (chi, back))
+    np.testing.assert_allclose(b[0], a[0], atol=1e-5)                       # pelvis in place
+    np.testing.assert_allclose(b[1:, :2] - b[0, :2], -(a[1:, :2] - a[0, :2]), atol=1e-5)
+    np.testing.assert_allclose(b[:, 2], a[:, 2], atol=1e-5)                 # heights kept
+    np.testing.assert_allclose(turned(shaped, back), chi, atol=1e-9)
