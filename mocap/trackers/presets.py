@@ -41,7 +41,7 @@ _HYBRID_PRIOR = replace(HybridSettings(),
 
 #: the two-cue hybrid's keypoint weight (one keypoint correspondence against one contour
 #: correspondence), chosen on the real-motion benchmark's dev split (docs/results/two_cue_hybrid.md)
-KEYPOINT_WEIGHT = 20.0
+KEYPOINT_WEIGHT = 200.0
 _HYBRID_KP = replace(HybridSettings(), keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT))
 
 #: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
