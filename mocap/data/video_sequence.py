@@ -99,8 +99,14 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
 
 
 def masks_from_folder(folder: Path, seq: Sequence) -> np.ndarray:
-    """(F, C, H, W) bool masks of a segmented sequence folder, checked against ``seq``."""
+    """(F, C, H, W) bool masks of a segmented sequence folder, checked against ``seq``; or of
+    the ``masks/`` folder of ``mocap detect`` (per-camera folders of PNGs, resized to ``seq``)."""
     from mocap.data.sequence_io import load_sequence
+
+    if (folder / seq.rig.names[0]).is_dir() and not (folder / "sequence.json").is_file():
+        from mocap.video.detect import read_masks
+
+        return read_masks(folder, seq.rig.names, seq.meta["source_frames"], seq.image_size)
 
     seg = load_sequence(folder, images=False)
     if seg.masks is None:
