@@ -19,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,8 @@ def detector_available() -> bool:
 def _import_mediapipe():
     os.environ.setdefault("GLOG_minloglevel", "2")        # no INFO lines from the graph per detector
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
+    # mediapipe 0.10.14 calls protobuf's deprecated GetPrototype on every frame
+    warnings.filterwarnings("ignore", message="SymbolDatabase.GetPrototype", category=UserWarning)
     try:
         from mediapipe.python.solutions import pose as mp_pose
     except ImportError as exc:
