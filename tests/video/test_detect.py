@@ -139,6 +139,13 @@ def test_detector_mask_with_grabcut_and_carving_fits_the_true_silhouettes(synthe
                       for f in range(PERSON_FRAMES)])
     assert ious.mean() >= 0.85 and ious.min() >= 0.7, (ious.round(3), alone.round(3))
     assert alone.mean() >= 0.9
+    refined = load_video_sequence(detected, keypoints="pose", layout="auto", stop=PERSON_FRAMES,
+                                  masks=str(detected / "masks"), refine_masks={"grabcut": True})
+    assert refined.masks.shape == truth.masks.shape and refined.meta["refine_masks"] == {"grabcut": True}
+    assert np.mean([[iou(refined.masks[f, c], truth.masks[f, c]) for c in range(seq.num_views)]
+                    for f in range(PERSON_FRAMES)]) >= 0.85
+    with pytest.raises(ValueError, match="refine_masks needs masks="):
+        load_video_sequence(detected, keypoints=None, stop=2, refine_masks={"grabcut": True})
 
 
 @needs_detector
