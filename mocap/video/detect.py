@@ -38,7 +38,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mocap.cameras import load_calibration
+from mocap.cameras import load_calibration, project, triangulate
 from mocap.data.openpose import _find_calibration
 from mocap.data.video import VideoError, VideoFrames, frame_range, video_info
 from mocap.data.video_sequence import match_videos
@@ -155,13 +155,84 @@ def _people_json(kp: np.ndarray | None) -> dict:
     return {"version": 1.3, "people": people}
 
 
+#: BlazePose index -> its left/right mirror (eyes, ears, mouth corners, limbs, hands, feet)
+MIRROR = np.arange(NUM_KEYPOINTS)
+for _a, _b in [(1, 4), (2, 5), (3, 6), (7, 8), (9, 10)] + [(k, k + 1) for k in range(11, 32, 2)]:
+    MIRROR[_a], MIRROR[_b] = _b, _a
+#: keypoints compared when checking a view's left/right labels (shoulders to feet)
+BODY = np.arange(11, NUM_KEYPOINTS)
+
+
+def left_right_fixes(rig, keypoints: np.ndarray, min_confidence: float = 0.5,
+                     ratio: float = 0.5) -> list[int]:
+    """Views of one frame whose left/right labels are swapped (fixed in place).
+
+    keypoints: (C, 33, 3) per view (x, y, confidence; all 0 where no person). BlazePose tells
+    left from right by the person's appearance and now and then mirrors one view. For each
+    view with a person, the body keypoints are triangulated from the other views and
+    reprojected into it; when its mirrored labels fit that reprojection better than ``ratio``
+    x its own (median pixel error), the view is mirrored. One view at a time, the clearest
+    first, until none qualifies. Returns the mirrored views."""
+    C = len(keypoints)
+    fixed: list[int] = []
+    for _ in range(C):
+        ok = keypoints[:, BODY, 2] >= min_confidence                       # (C, B)
+        best, best_ratio = None, ratio
+        for c in range(C):
+            others = ok.copy()
+            others[c] = False
+            if not ok[c].any() or (others.sum(0) >= 2).sum() < 6:
+                continue
+            X = triangulate(rig, keypoints[:, BODY, :2], valid=others)
+            px = project(rig[[c]], np.nan_to_num(X))[0]                    # (B, 2)
+            have = np.all(np.isfinite(X), axis=1) & (others.sum(0) >= 2)
+            mirrored = keypoints[c][MIRROR][BODY]
+            use = have & ok[c] & (mirrored[:, 2] >= min_confidence)
+            if use.sum() < 6:
+                continue
+            own = np.median(np.linalg.norm(keypoints[c, BODY, :2][use] - px[use], axis=1))
+            mir = np.median(np.linalg.norm(mirrored[use, :2] - px[use], axis=1))
+            if own > 0 and mir / own < best_ratio:
+                best, best_ratio = c, mir / own
+        if best is None:
+            break
+        keypoints[best] = keypoints[best][MIRROR]
+        fixed.append(best)
+    return fixed
+
+
+def fix_left_right(plan: DetectPlan, progress: bool = True) -> dict[str, list[int]]:
+    """Apply :func:`left_right_fixes` to every frame of the folder's keypoint files
+    (rewritten in place; idempotent). Returns {camera: source frames mirrored}."""
+    from tqdm import tqdm
+
+    rig = load_calibration(plan.calibration)
+    out = plan.out / KEYPOINTS_DIR
+    fixes: dict[str, list[int]] = {name: [] for name in plan.names}
+    for n in tqdm(plan.frames, desc="left/right check", unit="frame", disable=not progress):
+        paths = [out / f"{name}_json" / frame_file(name, n, ".json") for name in plan.names]
+        kp = np.zeros((len(paths), NUM_KEYPOINTS, 3))
+        for c, p in enumerate(paths):
+            people = json.loads(p.read_text())["people"]
+            if people:
+                kp[c] = np.reshape(people[0]["pose_keypoints_2d"], (NUM_KEYPOINTS, 3))
+        for c in left_right_fixes(rig, kp):
+            tmp = paths[c].with_name(paths[c].name + ".part")
+            tmp.write_text(json.dumps(_people_json(kp[c])))
+            os.replace(tmp, paths[c])
+            fixes[plan.names[c]].append(n)
+    return fixes
+
+
 def frame_file(name: str, n: int, suffix: str) -> str:
     return f"{name}.{n:06d}{suffix}"
 
 
-def run_detection(plan: DetectPlan, progress: bool = True) -> dict:
+def run_detection(plan: DetectPlan, progress: bool = True, left_right: bool = True) -> dict:
     """Detect every view of ``plan.todo`` (the others are kept) and return the summary
-    (also written to ``<out>/detect.json``): per view, frames without a person and speed."""
+    (also written to ``<out>/detect.json``): per view, frames without a person and speed.
+    left_right: then check every frame's left/right labels across views
+    (:func:`fix_left_right`; the frames mirrored are in the summary)."""
     from tqdm import tqdm
 
     out = plan.out
@@ -214,18 +285,23 @@ def run_detection(plan: DetectPlan, progress: bool = True) -> dict:
         _atomic_json(rec, {"settings": plan.settings(c), "missing_frames": missing,
                            "resolution": [frames.width, frames.height],
                            "seconds_per_frame": seconds / len(plan.frames)})
-    return summarise(out, plan.names)
+    fixes = fix_left_right(plan, progress) if left_right and len(plan.names) >= 3 else None
+    return summarise(out, plan.names, fixes, redone=plan.todo)
 
 
-def summarise(out: Path, names: Seq[str]) -> dict:
-    """Per view, from the records: frames without a person, resolution and speed; written
-    into ``<out>/detect.json`` beside its header."""
+def summarise(out: Path, names: Seq[str], fixes: dict[str, list[int]] | None = None,
+              redone: Seq[str] = ()) -> dict:
+    """Per view, from the records: frames without a person, resolution and speed (and the
+    frames whose left/right labels were mirrored, accumulated over runs); written into
+    ``<out>/detect.json`` beside its header."""
     head = json.loads((out / "detect.json").read_text())
     views = {}
     for name in names:
         rec = json.loads((out / RECORDS_DIR / f"{name}.json").read_text())
         views[name] = {k: rec[k] for k in ("missing_frames", "resolution", "seconds_per_frame")}
         views[name]["frames"] = len(rec["settings"]["frames"])
+        before = [] if name in redone else head.get("views", {}).get(name, {}).get("left_right_mirrored", [])
+        views[name]["left_right_mirrored"] = sorted(set(before) | set((fixes or {}).get(name, [])))
     head["views"] = views
     _atomic_json(out / "detect.json", head)
     return head

@@ -46,6 +46,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--min-confidence", type=float, default=0.5, help="detection and tracking confidence")
     p.add_argument("--max-missing", type=int, default=None,
                    help="fail (exit 2) when a view has no person in more than this many frames")
+    p.add_argument("--keep-left-right", action="store_true",
+                   help="skip the multi-view check that mirrors a view's left/right labels when the other "
+                        "views say they are swapped")
     p.add_argument("--force", action="store_true", help="redo views already done")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
@@ -67,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"views already done with these settings, skipped: {', '.join(skipped)} (--force redoes them)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")             # the padding warning, said above once
-        summary = run_detection(plan, progress=not args.no_progress)
+        summary = run_detection(plan, progress=not args.no_progress, left_right=not args.keep_left_right)
     too_many = []
     for name, v in summary["views"].items():
         miss = v["missing_frames"]
@@ -77,6 +80,9 @@ def main(argv: list[str] | None = None) -> int:
         if miss:
             shown = ", ".join(map(str, miss[:20])) + (" ..." if len(miss) > 20 else "")
             line += f"; no person in source frames {shown}"
+        mirrored = v.get("left_right_mirrored", [])
+        if mirrored:
+            line += f"; left/right mirrored (other views disagreed) in {len(mirrored)} frames"
         print(line)
         if args.max_missing is not None and len(miss) > args.max_missing:
             too_many.append(f"{name} ({len(miss)})")
