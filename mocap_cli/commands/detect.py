@@ -6,8 +6,10 @@ MEDIAPIPE_33 layout, with confidences) and person masks, in a Pose2Sim-style fol
 
 REC holds a calibration (*.toml, or --calibration FILE) and videos/ with one video per camera
 (named like the calibration's cameras). OUT gets the calibration, links to the videos,
-pose/<cam>_json/*.json, masks/<cam>/*.png and detect.json (mocap/video/detect.py). Resumable:
-views already done with the same settings are skipped (--force redoes them). Track it:
+pose/<cam>_json/*.json, masks/<cam>/*.png and detect.json (mocap/video/detect.py). After
+detection a multi-view check mirrors a view's left/right labels where the other views say
+they are swapped (--keep-left-right skips it). Resumable: views already done with the same
+settings are skipped (--force redoes them). Track it:
 
     mocap track data=pose2sim_demo_video data.path=OUT data.keypoints=pose data.layout=auto \\
         data.masks=OUT/masks tracker=marker_apf init.mode=tracker
