@@ -2,7 +2,9 @@
 # Installs everything mocap needs on a fresh Debian/Ubuntu machine: Python 3.11 with venv
 # (from the system's packages if missing), the EGL/Mesa libraries pyrender renders with
 # (headless), xvfb + Mesa Vulkan for the headless Rerun viewer test, and a virtual
-# environment in .venv holding uv and the locked dependencies (requirements.lock). Safe to run again: each step is skipped when done.
+# environment in .venv holding uv and the locked dependencies (requirements.lock), plus the
+# optional detector of `mocap detect` (requirements-detect.txt, without its declared
+# dependencies). Safe to run again: each step is skipped when done.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -46,13 +48,16 @@ if [ -n "$missing" ]; then
 fi
 
 export UV_PYTHON_DOWNLOADS=never
-stamp=".venv/.synced-$(cat requirements.lock pyproject.toml | sha1sum | cut -c1-12)"
+stamp=".venv/.synced-$(cat requirements.lock requirements-detect.txt pyproject.toml | sha1sum | cut -c1-12)"
 if [ ! -f "$stamp" ]; then
   echo "[setup] creating .venv (the first run takes a minute or two)"
   [ -x .venv/bin/python ] || "$PY" -m venv .venv
   [ -x .venv/bin/uv ] || .venv/bin/python -m pip install -q uv
   .venv/bin/uv pip install -q --python .venv/bin/python -r requirements.lock
   .venv/bin/uv pip install -q --python .venv/bin/python --no-deps --config-settings editable_mode=compat -e .
+  # the detector (mediapipe's legacy pose solution): its declared jax / opencv-contrib are not needed
+  .venv/bin/uv pip install -q --python .venv/bin/python --no-deps -r requirements-detect.txt \
+    || echo "[setup] WARNING: could not install requirements-detect.txt: mocap detect and its tests are unavailable" >&2
   rm -f .venv/.synced-*; touch "$stamp"
   .venv/bin/rerun analytics disable >/dev/null 2>&1 || true
 fi

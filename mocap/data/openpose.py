@@ -24,6 +24,7 @@ from __future__ import annotations
 import itertools
 import json
 import re
+import warnings
 from collections.abc import Sequence as Seq
 from pathlib import Path
 
@@ -391,12 +392,32 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
                 for k in np.flatnonzero(keep):
                     rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2], i))
     arr = np.array(rows, np.float64).reshape(-1, 7)
+    seen = {(int(f), int(c)) for f, c in arr[:, :2]}
+    without = {rig.names[c]: [f - first for f in all_frames if (f - first, c) not in seen]
+               for c in range(len(rig))}
+    without = {name: frames for name, frames in without.items() if frames}
+    if without:
+        warnings.warn(f"{kp_root}: no keypoints of the subject in " + "; ".join(
+            f"{name} frames {_ranges(frames)}" for name, frames in without.items())
+            + " (the tracker has no detections there)", stacklevel=2)
     det = Detections(labels=labels, frame=arr[:, 0].astype(np.int64), view=arr[:, 1].astype(np.int64),
                      label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5],
                      person=arr[:, 6].astype(np.int64))
     meta = {"source": str(root), "calibration": str(calib), "layout": layout, "person": person,
-            "first_frame": int(first), "frames": len(all_frames)}
+            "first_frame": int(first), "frames": len(all_frames), "frames_without_keypoints": without}
     return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, meta=meta)
+
+
+def _ranges(frames: Seq[int]) -> str:
+    """"0-3, 7, 9-10" for [0, 1, 2, 3, 7, 9, 10]."""
+    out, start = [], None
+    for i, f in enumerate(frames):
+        if start is None:
+            start = f
+        if i + 1 == len(frames) or frames[i + 1] != f + 1:
+            out.append(f"{start}" if start == f else f"{start}-{f}")
+            start = None
+    return ", ".join(out)
 
 
 def _find_calibration(root: Path) -> Path:

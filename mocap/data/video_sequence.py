@@ -61,9 +61,13 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
                         person: str = "subject", fps: float | None = None, start: int = 0,
                         stop: int | None = None, step: int = 1, scale: float = 1.0,
                         size_tolerance: float = 0.02, masks: str | None = None,
-                        segmentation: Mapping | None = None, name: str | None = None) -> Sequence:
+                        segmentation: Mapping | None = None, refine_masks: Mapping | None = None,
+                        name: str | None = None) -> Sequence:
     """A :class:`Sequence` with lazy video images, the scaled rig, keypoint detections (if
-    ``keypoints``) and masks (if ``masks`` or ``segmentation``)."""
+    ``keypoints``) and masks (if ``masks`` or ``segmentation``). refine_masks: options of
+    :func:`mocap.video.person_masks.combine_masks` (e.g. ``{grabcut: true, background:
+    masked_median}``) applied to the person probabilities of a ``mocap detect`` masks folder
+    (``masks=<out>/masks``), guided by the sequence's keypoints."""
     root = Path(path)
     if not root.is_dir():
         raise FileNotFoundError(f"recording folder not found: {root}")
@@ -88,7 +92,13 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
             "source_frames": frames, "scale": float(scale), "layout": layout, "person": person}
     seq = Sequence(name=name or root.name, rig=rig, fps=fps / step, images=images, detections=det,
                    meta=meta)
-    if masks is not None:
+    if refine_masks is not None and masks is None:
+        raise ValueError("refine_masks needs masks=<mocap detect output>/masks (the detector's "
+                         "probabilities)")
+    if masks is not None and refine_masks is not None:
+        seq = replace(seq, masks=refined_detector_masks(Path(masks), seq, dict(refine_masks)),
+                      meta={**meta, "refine_masks": dict(refine_masks)})
+    elif masks is not None:
         seq = replace(seq, masks=masks_from_folder(Path(masks), seq))
     elif segmentation is not None:
         from mocap.data.segmentation import segment_sequence
@@ -98,9 +108,33 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
     return seq
 
 
+def refined_detector_masks(folder: Path, seq: Sequence, options: dict) -> np.ndarray:
+    """(F, C, H, W) bool: ``mocap detect``'s person probabilities in ``folder`` combined with
+    GrabCut / a background model / carving (:func:`mocap.video.person_masks.combine_masks`)."""
+    from mocap.data.segmentation import keypoint_dict
+    from mocap.video.detect import read_masks
+    from mocap.video.person_masks import combine_masks
+
+    if not (folder / seq.rig.names[0]).is_dir():
+        raise ValueError(f"refine_masks: {folder} is not a mocap detect masks folder "
+                         f"(no {seq.rig.names[0]}/ inside)")
+    prob = read_masks(folder, seq.rig.names, seq.meta["source_frames"], seq.image_size, probability=True)
+    images = np.stack([np.asarray(seq.images[f]) for f in range(seq.num_frames)])
+    det = seq.detections
+    kps = [[keypoint_dict(det.select(f, c)) if det is not None else {} for c in range(seq.num_views)]
+           for f in range(seq.num_frames)]
+    return combine_masks(images, prob, kps, seq.rig, **options)
+
+
 def masks_from_folder(folder: Path, seq: Sequence) -> np.ndarray:
-    """(F, C, H, W) bool masks of a segmented sequence folder, checked against ``seq``."""
+    """(F, C, H, W) bool masks of a segmented sequence folder, checked against ``seq``; or of
+    the ``masks/`` folder of ``mocap detect`` (per-camera folders of PNGs, resized to ``seq``)."""
     from mocap.data.sequence_io import load_sequence
+
+    if (folder / seq.rig.names[0]).is_dir() and not (folder / "sequence.json").is_file():
+        from mocap.video.detect import read_masks
+
+        return read_masks(folder, seq.rig.names, seq.meta["source_frames"], seq.image_size)
 
     seg = load_sequence(folder, images=False)
     if seg.masks is None:
