@@ -29,7 +29,8 @@ MARKERS = "osD^vP*Xph<>"
 SUFFIX_VALUE_CHARS = 14     # an override value longer than this is cut (unless names would collide)
 # overrides already visible in a name that shows the search budget (APF P×L)
 BUDGET_KEYS = ("particles", "layers")
-NAMES = {"local": "local", "hybrid": "hybrid", "marker_apf": "marker APF"}
+NAMES = {"local": "local", "hybrid": "hybrid", "marker_apf": "marker APF", "hybrid_kp": "two-cue hybrid",
+         "hybrid_prior": "hybrid + prior", "hybrid_prior_real": "hybrid + real prior"}
 
 
 def _budget(particles_x_layers: str) -> tuple[int, int] | None:
@@ -42,13 +43,15 @@ def _budget(particles_x_layers: str) -> tuple[int, int] | None:
 
 def short_name(tracker: str, particles_x_layers: str = "-", energy_terms: str = "-") -> str:
     """A tracker's short name: "local", "hybrid", "marker APF"; an annealed particle filter by
-    its budget and prior ("APF 25×10 + prior"); any other tracker by its own name.
+    its budget and prior ("APF 25×10 + prior"; "+ real prior" for a preset named ``*_real``,
+    the prior learned from real motion); any other tracker by its own name.
     particles_x_layers: "25x10" or "-"; energy_terms: "silhouette+smoothness+prior" or "-"."""
     if tracker in NAMES:
         return NAMES[tracker]
     budget = _budget(particles_x_layers)
     if tracker.startswith("apf") and budget:
         prior = " + prior" if "prior" in str(energy_terms).split("+") else ""
+        prior = " + real prior" if prior and tracker.endswith("_real") else prior
         return f"APF {budget[0]}×{budget[1]}{prior}"
     return tracker
 

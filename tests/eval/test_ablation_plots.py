@@ -150,6 +150,12 @@ def test_short_labels_for_overrides():
     assert short_label({"tracker": "marker_apf", "overrides": "tracker.layers=4"}) == "marker APF (layers=4)"
     assert short_label({"tracker": "hybrid", "overrides": "-"}) == "hybrid"
     assert short_label({"tracker": "new_tracker", "overrides": "-"}) == "new_tracker"
+    # the two priors of the real-motion comparison read apart
+    real = {"tracker": "apf_prior_real", "particles_x_layers": "25x10",
+            "energy_terms": "silhouette+smoothness+prior", "overrides": "-"}
+    assert short_label(real) == "APF 25×10 + real prior"
+    assert short_label({**real, "tracker": "apf_prior"}) == "APF 25×10 + prior"
+    assert short_label({"tracker": "hybrid_kp", "overrides": "-"}) == "two-cue hybrid"
     noisy = [{"tracker": "local", "data": "d",
               "overrides": f"data.silhouette_noise={{holes:2,dilate_px:{k}}}"} for k in (3, 5)]
     cut = short_label(noisy[0])
