@@ -24,12 +24,12 @@ from mocap.eval.ablation import collect
 
 #: the trackers of the claim in the order of the table (others found are appended)
 ORDER = ("local", "hybrid", "hybrid_prior", "hybrid_prior_real", "hybrid_kp", "apf_25x10", "apf_prior",
-         "apf_prior_real", "apf")
+         "apf_prior_real", "apf", "marker_apf")
 LABELS = {"local": "local", "hybrid": "hybrid (no prior)", "hybrid_prior": "hybrid + procedural prior",
           "hybrid_prior_real": "hybrid + real prior", "hybrid_kp": "two-cue hybrid (+ 2D detections)",
           "apf_25x10": "APF 25x10, no prior",
           "apf_prior": "APF 25x10 + procedural prior", "apf_prior_real": "APF 25x10 + real prior",
-          "apf": "APF 100x15, no prior"}
+          "apf": "APF 100x15, no prior", "marker_apf": "marker tracker (2D detections only)"}
 
 
 def gather(sweep: Path, accept_unverified: bool = False) -> tuple[dict, dict, list]:
@@ -94,7 +94,7 @@ def table(cells: dict, oracle: dict) -> tuple[list[str], dict]:
 
 def claim_lines(summary: dict) -> list[str]:
     out = []
-    for t in ("hybrid", "hybrid_kp"):
+    for t in ("hybrid", "hybrid_kp", "marker_apf"):
         if t in summary:
             h = summary[t]
             out.append(f"- {LABELS[t]}: {h['median_ratio']:.1f}× the oracle on the median sequence (target "
