@@ -142,6 +142,8 @@ CASES = [
     ("init.mode=bogus", lambda t: ["track", *FAST, "init.mode=bogus"], 2, ["init.mode", "bogus"]),
     ("recording.every=0", lambda t: ["track", *FAST, "recording.enabled=true", "recording.every=0"], 2,
      ["recording.every", "0"]),
+    ("recording.every=0, recording off", lambda t: ["track", *FAST, "recording.every=0"], 2,
+     ["recording.every", "0"]),
     ("unknown tracker", lambda t: ["track", "tracker=no_such"], 2, ["tracker/no_such", "apf"]),
     ("unknown tracker key", lambda t: ["track", *FAST, "tracker.no_such_key=1"], 2,
      ["tracker.no_such_key"]),
