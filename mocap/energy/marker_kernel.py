@@ -156,7 +156,7 @@ def nearest_candidates(u, front, obs_xy, valid, confidence, gate2, z, conf, ok):
     (squared distance dx^2 + dy^2, the first of equals, a NaN distance first as numpy's
     argmin takes it; candidate 0 when none is valid): its pixels z (L, C, 2), confidence
     conf (L, C), and ok (L, C) = nearer than sqrt(gate2) and front (L, C). The loop of
-    :func:`mocap.trackers.markers.refine.associate`, same values."""
+    :func:`mocap.energy.markers.associate`, same values."""
     L, C, K = valid.shape
     for lm in range(L):
         for c in range(C):

@@ -48,10 +48,15 @@ from mocap.data.sequence import Detections
 from mocap.energy.fallback import warn_once
 
 try:                                    # the compiled kernels need numba; numpy is the fallback
-    from mocap.energy.marker_kernel import landmark_points, project_points, view_costs_fused
+    from mocap.energy.marker_kernel import (
+        landmark_points,
+        nearest_candidates,
+        project_points,
+        view_costs_fused,
+    )
     HAVE_NUMBA = True
 except ImportError:                     # pragma: no cover - exercised by monkeypatching HAVE_NUMBA
-    landmark_points = project_points = view_costs_fused = None
+    landmark_points = nearest_candidates = project_points = view_costs_fused = None
     HAVE_NUMBA = False
 
 
@@ -395,3 +400,26 @@ def reprojection_errors(points: np.ndarray, obs: MarkerObservation, rig: Rig, ga
     d = np.sqrt(((obs.xy - u[0][:, :, None, :]) ** 2).sum(axis=-1))
     d = np.where(obs.valid, d, np.inf).min(axis=2)
     return np.where((d < gate_px) & (depth[0] > 0), d, np.nan)
+
+
+def associate(u: np.ndarray, front: np.ndarray, obs: MarkerObservation,
+              gate_px: float, compiled: bool | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nearest candidate within the gate per landmark and view (the marker tracker's
+    refinement, the two-cue hybrid's keypoint correspondences). u: (L, C, 2) projections,
+    front: (L, C). Returns z (L, C, 2), confidence (L, C), ok (L, C) bool. With numba
+    (``compiled`` None or True) one compiled loop
+    (:func:`mocap.energy.marker_kernel.nearest_candidates`), the same values."""
+    if (compiled is None or compiled) and HAVE_NUMBA:
+        L, C = front.shape
+        z, conf, ok = np.empty((L, C, 2)), np.empty((L, C)), np.empty((L, C), bool)
+        nearest_candidates(np.ascontiguousarray(u, np.float64), np.ascontiguousarray(front, bool),
+                           np.ascontiguousarray(obs.xy, np.float64), np.ascontiguousarray(obs.valid, bool),
+                           np.ascontiguousarray(obs.confidence, np.float64), float(gate_px) ** 2, z, conf, ok)
+        return z, conf, ok
+    d2 = ((obs.xy - u[:, :, None, :]) ** 2).sum(axis=-1)
+    d2 = np.where(obs.valid, d2, np.inf)
+    k = np.argmin(d2, axis=2)
+    best = np.take_along_axis(d2, k[..., None], axis=2)[..., 0]
+    z = np.take_along_axis(obs.xy, k[..., None, None], axis=2)[:, :, 0]
+    conf = np.take_along_axis(obs.confidence, k[..., None], axis=2)[..., 0]
+    return z, conf, (best < gate_px**2) & front

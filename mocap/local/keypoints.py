@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from mocap.cameras import Rig, pixel_rays, plucker_from_rays
-from mocap.energy.markers import MarkerObservation, pinhole_project
+from mocap.energy.markers import MarkerObservation, associate, pinhole_project
 from mocap.local.solver import PointLines
 
 
@@ -31,17 +31,6 @@ def tukey_weights(r: np.ndarray, scale: float) -> np.ndarray:
     """Tukey's biweight (1 - (r / scale)^2)^2 for |r| < scale, else 0; r any shape."""
     u = np.minimum((np.asarray(r, np.float64) / float(scale)) ** 2, 1.0)
     return (1.0 - u) ** 2
-
-
-def nearest_candidates(u: np.ndarray, obs: MarkerObservation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per landmark and view the candidate nearest the projection: u (L, C, 2) projected
-    pixels -> (pixels (L, C, 2), distance (L, C) px, inf where the view has none, confidence
-    (L, C))."""
-    d2 = ((obs.xy - u[:, :, None, :]) ** 2).sum(axis=-1)              # (L, C, K)
-    d2 = np.where(obs.valid, d2, np.inf)
-    k = np.argmin(d2, axis=2)                                          # (L, C)
-    pick = (np.arange(u.shape[0])[:, None], np.arange(u.shape[1])[None, :], k)
-    return obs.xy[pick], np.sqrt(d2[pick]), obs.confidence[pick]
 
 
 def keypoint_lines(points: np.ndarray, limbs: np.ndarray, obs: MarkerObservation, rig: Rig,
@@ -56,8 +45,9 @@ def keypoint_lines(points: np.ndarray, limbs: np.ndarray, obs: MarkerObservation
     module docstring."""
     points = np.asarray(points, np.float64)
     u, depth = pinhole_project(rig, points[None], compiled=False)      # (1, L, C, 2), (1, L, C)
-    z, r, conf = nearest_candidates(u[0], obs)
-    w = float(weight) * tukey_weights(r, gate_px) * (depth[0] > near)
+    z, conf, ok = associate(u[0], depth[0] > near, obs, gate_px)     # nearest, within the gate
+    r = np.where(ok, np.sqrt(((z - u[0]) ** 2).sum(axis=-1)), np.inf)
+    w = float(weight) * tukey_weights(r, gate_px)
     if use_confidence:
         w = w * np.clip(conf, 0.0, 1.0)
     li, ci = np.nonzero(w > 0)

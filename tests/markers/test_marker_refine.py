@@ -37,8 +37,7 @@ def test_refinement_recovers_a_perturbed_pose_from_exact_detections(body64):
 def test_compiled_association_equals_numpy_bit_for_bit():
     """Nearest valid candidate within the gate: the same pixels, confidences and flags from
     the compiled loop as from numpy's argmin, with empty cells, ties, NaN projections."""
-    from mocap.energy.markers import HAVE_NUMBA, MarkerObservation
-    from mocap.trackers.markers.refine import associate
+    from mocap.energy.markers import HAVE_NUMBA, MarkerObservation, associate
 
     if not HAVE_NUMBA:
         pytest.skip("numba is not installed")

@@ -21,11 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.cameras import Rig
-from mocap.energy.markers import HAVE_NUMBA, MarkerObservation, pinhole_project
+from mocap.energy.markers import HAVE_NUMBA, MarkerObservation, associate, pinhole_project
 from mocap.settings import check
-
-if HAVE_NUMBA:
-    from mocap.energy.marker_kernel import nearest_candidates
 
 
 @dataclass(frozen=True)
@@ -51,28 +48,6 @@ class Refinement:
         check(self, "damping", self.damping >= 0, ">= 0")
 
 
-def associate(u: np.ndarray, front: np.ndarray, obs: MarkerObservation,
-              gate_px: float, compiled: bool | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Nearest candidate within the gate per landmark and view. u: (L, C, 2) projections,
-    front: (L, C). Returns z (L, C, 2), confidence (L, C), ok (L, C) bool. With numba
-    (``compiled`` None or True) one compiled loop
-    (:func:`mocap.energy.marker_kernel.nearest_candidates`), the same values."""
-    if (compiled is None or compiled) and HAVE_NUMBA:
-        L, C = front.shape
-        z, conf, ok = np.empty((L, C, 2)), np.empty((L, C)), np.empty((L, C), bool)
-        nearest_candidates(np.ascontiguousarray(u, np.float64), np.ascontiguousarray(front, bool),
-                           np.ascontiguousarray(obs.xy, np.float64), np.ascontiguousarray(obs.valid, bool),
-                           np.ascontiguousarray(obs.confidence, np.float64), float(gate_px) ** 2, z, conf, ok)
-        return z, conf, ok
-    d2 = ((obs.xy - u[:, :, None, :]) ** 2).sum(axis=-1)
-    d2 = np.where(obs.valid, d2, np.inf)
-    k = np.argmin(d2, axis=2)
-    best = np.take_along_axis(d2, k[..., None], axis=2)[..., 0]
-    z = np.take_along_axis(obs.xy, k[..., None, None], axis=2)[:, :, 0]
-    conf = np.take_along_axis(obs.confidence, k[..., None], axis=2)[..., 0]
-    return z, conf, (best < gate_px**2) & front
-
-
 def refine_pose(points: Callable[[np.ndarray], np.ndarray], chi0: np.ndarray, obs: MarkerObservation,
                 rig: Rig, limits: np.ndarray, settings: Refinement,
                 gate_px: float) -> tuple[np.ndarray, dict]:
@@ -89,7 +64,7 @@ def refine_pose(points: Callable[[np.ndarray], np.ndarray], chi0: np.ndarray, ob
         batch[1:] += np.eye(D) * s.step
         X = points(batch)                                            # (D + 1, L, 3)
         u, depth = pinhole_project(rig, X)                           # (D + 1, L, C, 2)
-        z, conf, ok = associate(u[0], depth[0] > 0.05, obs, gate)
+        z, conf, ok = associate(u[0], depth[0] > 0.05, obs, gate, compiled=HAVE_NUMBA)
         if ok.sum() < 3:
             break
         r = (u[0] - z)[ok]                                           # (M, 2)
@@ -112,7 +87,7 @@ def refine_pose(points: Callable[[np.ndarray], np.ndarray], chi0: np.ndarray, ob
     if info["iterations"]:
         X = points(chi[None])
         u, depth = pinhole_project(rig, X)
-        z, _, ok = associate(u[0], depth[0] > 0.05, obs, gate)
+        z, _, ok = associate(u[0], depth[0] > 0.05, obs, gate, compiled=HAVE_NUMBA)
         if ok.any():
             info["residual_px_after"] = float(np.median(np.linalg.norm((u[0] - z)[ok], axis=1)))
     return chi, info
