@@ -16,6 +16,7 @@ import numpy as np
 
 from mocap.body import BodyModel, load_body
 from mocap.data.sequence import Sequence
+from mocap.trackers.init_cache import initial_estimate
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import TrackResult, frame_of, noisy_initial_pose, track_sequence
 
@@ -54,9 +55,7 @@ def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None
         elif init == "tracker":
             if not hasattr(t, "initial_estimate"):
                 raise ValueError(f"tracker {tracker!r} cannot initialise itself: give an initial pose")
-            chi, alpha = t.initial_estimate(frame_of(sequence, 0))
-            if hasattr(t, "refine_initial"):            # the two-cue hybrid's keypoint refinement
-                chi, _ = t.refine_initial(frame_of(sequence, 0), chi, alpha)
+            chi, alpha, _ = initial_estimate(t, frame_of(sequence, 0))   # as mocap track (no cache)
         else:
             raise ValueError(f"init must be 'auto', 'gt_noise', 'tracker' or a pose, got {init!r}")
     else:
