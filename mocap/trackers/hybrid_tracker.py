@@ -135,20 +135,27 @@ class HybridTracker(LocalTracker):
         if self.cue is not None:
             check_detections(seq, self.name)
 
-    def refine_initial(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, dict]:
-        """The self-initialisation's pose (D,) refined with the keypoint cue on ``frame``.
-        Silhouettes hardly tell front from back or left from right; keypoints do: the pose, its
+    def refine_initial(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray, dict]:
+        """The self-initialisation's pose (D,) and shape (K,) refined with the keypoint cue on
+        ``frame``. With ``keypoints.shape_std`` > 0 the shape is first fitted to the keypoints'
+        bone lengths (:meth:`KeypointCue.fitted_shape`). Silhouettes hardly tell front from back
+        or left from right; keypoints do: the pose, its
         limbs swapped left/right and both turned 180 degrees about the vertical through the
         pelvis are each fitted by the local optimiser with the keypoints, and the one of lowest
         silhouette + marker energy goes on; then every limb chain in turn is searched (as a
         misaligned limb is, its pose kept where that energy falls), and the local optimiser
-        ends (kept where it falls too). Returns (pose, report); without the cue (or with
-        ``keypoints.init`` off, or no detections in the frame): the pose unchanged and {}."""
+        ends (kept where it falls too). Returns (pose, shape, report); without the cue (or with
+        ``keypoints.init`` off, or no detections in the frame): pose and shape unchanged and {}."""
         on = self.cue is not None and self.tracker_settings.keypoints.init
         obs = self.cue.observe(frame) if on else None
         if obs is None:
-            return chi, {}
+            return chi, alpha, {}
         self.initialize(chi, alpha)
+        report = {}
+        if self.tracker_settings.keypoints.shape_std > 0:
+            alpha, report["keypoint_shape"] = self.cue.fitted_shape(obs, alpha)
+            self.set_shape(alpha)
         before = float(self.two_cue_energy(frame, obs, chi[None])[0])
         perm, sign = mirror_map(self.body)
         starts = [chi, swap_limbs(chi, perm, sign, self.body.limits)]
@@ -167,7 +174,8 @@ class HybridTracker(LocalTracker):
         local, _ = self.local_step(frame, chi, extra=self.keypoint_lines(obs))
         e = self.two_cue_energy(frame, obs, np.stack([chi, local]))
         chi, after = (local, float(e[1])) if e[1] < e[0] else (chi, float(e[0]))
-        return chi, {"keypoint_refine": {"energy_before": before, "energy_after": after}}
+        report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
+        return chi, np.asarray(self.shaped.alpha, np.float64), report
 
     def two_cue_energy(self, frame: Frame, obs, chi: np.ndarray) -> np.ndarray:
         """(P, D) -> (P,): the frame's mean per-view E_S plus the scaled marker likelihood."""

@@ -52,13 +52,14 @@ def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = No
     """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
     the computation, also on a cache hit), cached (bool), and the initialiser's hypotheses and
     margin where it reports them. A tracker with ``refine_initial(frame, chi, alpha) -> (chi,
-    report)`` (the two-cue hybrid) refines the pose afterwards, outside the cache (whose key
-    describes the initialiser only); a non-empty report joins info with its seconds."""
+    alpha, report)`` (the two-cue hybrid) refines the pose (and shape) afterwards, outside the
+    cache (whose key describes the initialiser only); a non-empty report joins info with its
+    seconds."""
     chi, alpha, info = _cached_estimate(tracker, frame, cache)
     refine = getattr(tracker, "refine_initial", None)
     if refine is not None:
         t = time.perf_counter()
-        chi, report = refine(frame, chi, alpha)
+        chi, alpha, report = refine(frame, chi, alpha)
         if report:
             info = {**info, **report, "refine_seconds": time.perf_counter() - t}
     return chi, alpha, info

@@ -39,7 +39,8 @@ from mocap.local.misalignment import limb_chains
 from mocap.local.solver import PointLines
 from mocap.settings import check
 from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
-from mocap.trackers.markers.startup import pinhole_rig, triangulate_candidates
+from mocap.trackers.markers.settings import MarkerInit
+from mocap.trackers.markers.startup import pinhole_rig, shape_from_landmarks, triangulate_candidates
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,12 @@ class KeypointSettings:
     outlier gate tau as a fraction of the image diagonal (as the marker tracker's);
     ``use_confidence``, ``min_confidence``, ``landmarks`` (``auto``: every detection label the
     catalogue knows) and the learned ``offsets`` as the marker tracker's; ``init``: refine the
-    self-initialisation's pose with the cue (a search of every limb chain, then local steps)."""
+    self-initialisation's pose with the cue (a search of every limb chain, then local steps);
+    ``shape_std``: with ``init``, first fit the body shape to the distances between the
+    keypoints triangulated in frame 0 that no pose changes (the marker tracker's start-up fit),
+    under a normal prior centred on the silhouettes' shape with this standard deviation (in the
+    model's standardised units; 0: keep the silhouettes' shape). Silhouettes measure the body's
+    outline, keypoints its bone lengths, which the outline hardly constrains."""
 
     weight: float = 0.0
     energy: float = 1.0
@@ -63,6 +69,7 @@ class KeypointSettings:
     landmarks: str | tuple = "auto"
     offsets: OffsetLearning = OffsetLearning()
     init: bool = True
+    shape_std: float = 0.0
 
     def __post_init__(self) -> None:
         check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")
@@ -70,6 +77,7 @@ class KeypointSettings:
         check(self, "flag", 0.0 <= self.flag <= 1.0, "[0, 1] of the gate (0: off)")
         check(self, "gate", 0.0 < self.gate <= 1.0, "(0, 1], a fraction of the image diagonal")
         check(self, "min_confidence", 0.0 <= self.min_confidence <= 1.0, "[0, 1]")
+        check(self, "shape_std", self.shape_std >= 0, ">= 0 (0: the silhouettes' shape)")
         check(self, "landmarks", isinstance(self.landmarks, str | tuple),
               "a landmark set's name (auto) or a list of landmark names / entries")
 
@@ -117,6 +125,23 @@ class KeypointCue:
             self.landmarks = make_landmark_set(self.body, self.settings.landmarks, det.labels)
         return arrange_detections(det, self.landmarks.names, self.rig, self.settings.min_confidence,
                                   views=self._views)
+
+    def fitted_shape(self, obs: MarkerObservation, alpha: np.ndarray) -> tuple[np.ndarray, dict]:
+        """The shape (K,) fitted to the rigid distances between the keypoints of ``obs``
+        triangulated robustly (:func:`~mocap.trackers.markers.startup.shape_from_landmarks`,
+        the marker tracker's start-up settings), its prior centred on ``alpha`` with standard
+        deviation ``shape_std``; and a report (landmarks triangulated, the shift in the
+        standardised coefficients, a flag when shrunk to the model's bounds)."""
+        init = MarkerInit()
+        measured, _ = triangulate_candidates(self.pinhole, obs, self.gate_px)
+        fitted, flag = shape_from_landmarks(self.body, self.landmarks, measured, init.length_sigma,
+                                            init.outlier_sigma, init.bound_sigma, prior_mean=alpha,
+                                            prior_std=self.settings.shape_std)
+        report = {"triangulated": int(np.isfinite(measured).all(axis=1).sum()),
+                  "alpha_change": float(np.linalg.norm(fitted - np.asarray(alpha, np.float64)))}
+        if flag is not None:
+            report["flag"] = flag
+        return fitted, report
 
     def rest(self, shaped: ShapedBody) -> np.ndarray:
         """Rest landmarks (L, 3) of the shaped body, with the learned offsets."""

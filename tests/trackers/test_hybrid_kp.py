@@ -49,8 +49,8 @@ def test_keypoint_weight_zero_is_the_hybrid_bit_for_bit(body, seq):
     runs = []
     for name, extra in (("hybrid", {}), ("hybrid_kp", {"keypoints": {"weight": 0.0}})):
         t = make_tracker(name, body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST, **extra)
-        chi, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)
-        assert report == {} and chi is start
+        chi, alpha, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)
+        assert report == {} and chi is start and alpha is seq.gt.alpha
         runs.append(np.stack([e.chi for e in track_sequence(t, seq, start, seq.gt.alpha).estimates]))
     np.testing.assert_array_equal(runs[0], runs[1])
     assert not np.array_equal(runs[0][1], runs[0][0])              # it tracked
@@ -75,7 +75,8 @@ def test_the_initialisation_refinement_fixes_the_arm_with_the_cue_only(body, seq
     two-cue energy fell."""
     start = folded_arm(body, seq.gt.chi[0])
     t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), local=FAST["local"])
-    chi, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)
+    chi, alpha, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)
+    np.testing.assert_array_equal(alpha, seq.gt.alpha)             # shape_std 0: the shape kept
     r = report["keypoint_refine"]
     assert r["energy_after"] < r["energy_before"]
 
@@ -103,3 +104,26 @@ def test_turned_keeps_the_pelvis_and_faces_the_other_way(body, seq):
     np.testing.assert_allclose(b[1:, :2] - b[0, :2], -(a[1:, :2] - a[0, :2]), atol=1e-5)
     np.testing.assert_allclose(b[:, 2], a[:, 2], atol=1e-5)                 # heights kept
     np.testing.assert_allclose(turned(shaped, back), chi, atol=1e-9)
+
+
+def test_the_keypoint_shape_fit_brings_the_bone_lengths_back(body, seq):
+    """Started from the mean shape (a silhouette initialisation that got the build wrong), the
+    start-up's keypoint shape fit (keypoints.shape_std > 0) moves the skeleton's bone lengths
+    at least halfway to the true body's; the report says so."""
+    from mocap.body.bone_lengths import skeleton_length_model
+
+    bones, _ = skeleton_length_model(body)
+
+    def bone_error(alpha) -> float:
+        _, joints = body.rest(np.stack([alpha, seq.gt.alpha]))
+        got, want = bones.lengths(np.asarray(joints, np.float64))
+        return float(np.abs(got - want).mean())
+
+    mean = np.zeros(body.num_shape)
+    assert bone_error(mean) > 0.005                              # the truth is not the mean body
+    t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), local=FAST["local"],
+                     apf=FAST["apf"], keypoints={"shape_std": 3.0})
+    _, alpha, report = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], mean)
+    assert bone_error(alpha) < 0.5 * bone_error(mean), (bone_error(alpha), bone_error(mean))
+    assert report["keypoint_shape"]["triangulated"] >= 10 and report["keypoint_shape"]["alpha_change"] > 0
+    np.testing.assert_array_equal(t.shaped.alpha, alpha)          # the tracker goes on with it

@@ -15,7 +15,8 @@ import itertools
 
 import numpy as np
 
-from mocap.body.catalogue import probe_poses
+from mocap.body.bone_lengths import length_model, shrink_to_bounds, skeleton_length_model
+from mocap.body.catalogue import probe_poses, rest_point_basis, rigid_pairs
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
 from mocap.body.twists import se3_log
@@ -70,15 +71,19 @@ def triangulate_candidates(rig: Rig, obs: MarkerObservation, gate_px: float,
 
 
 def fit_shape(rest0: np.ndarray, basis: np.ndarray, pairs: np.ndarray, lengths: np.ndarray,
-              length_sigma: float = 0.02, iterations: int = 10) -> np.ndarray:
+              length_sigma: float = 0.02, iterations: int = 10, prior_mean: np.ndarray | None = None,
+              prior_std: float = 1.0) -> np.ndarray:
     """Shape alpha (K,) whose rest landmarks R0 + sum_k alpha_k B_k (rest0: (L, 3), basis:
     (K, L, 3)) have the measured distances ``lengths`` (B,) between ``pairs`` (B, 2); NaN
-    lengths are ignored. Gauss-Newton on sum (|R_i - R_j| - l_ij)^2 / sigma^2 + |alpha|^2
-    (the standard normal prior of the standardised coefficients)."""
+    lengths are ignored. Gauss-Newton on sum (|R_i - R_j| - l_ij)^2 / sigma^2 +
+    |alpha - mu|^2 / s^2: by default mu = 0, s = 1, the standard normal prior of the
+    standardised coefficients; the two-cue hybrid centres it on the silhouettes' shape
+    (``prior_mean`` mu (K,), ``prior_std`` s)."""
     K = basis.shape[0]
     ok = np.isfinite(lengths)
     pairs, lengths = pairs[ok], lengths[ok]
-    alpha = np.zeros(K)
+    mu = np.zeros(K) if prior_mean is None else np.asarray(prior_mean, np.float64)
+    alpha = mu.copy()
     if not len(pairs):
         return alpha
     i, j = pairs[:, 0], pairs[:, 1]
@@ -90,12 +95,39 @@ def fit_shape(rest0: np.ndarray, basis: np.ndarray, pairs: np.ndarray, lengths: 
         n = np.linalg.norm(v, axis=1)
         r = (n - lengths) * weight
         J = np.einsum("bc,kbc->bk", v / n[:, None], dB) * weight[:, None]   # (B, K)
-        A = J.T @ J + np.eye(K)
-        step = np.linalg.solve(A, -(J.T @ r + alpha))
+        A = J.T @ J + np.eye(K) / prior_std**2
+        step = np.linalg.solve(A, -(J.T @ r + (alpha - mu) / prior_std**2))
         alpha = alpha + step
         if np.abs(step).max() < 1e-6:
             break
     return alpha
+
+
+def shape_from_landmarks(body: BodyModel, landmarks: LandmarkSet, measured: np.ndarray,
+                         length_sigma: float, outlier_sigma: float, bound_sigma: float,
+                         prior_mean: np.ndarray | None = None,
+                         prior_std: float = 1.0) -> tuple[np.ndarray, str | None]:
+    """The shape alpha (K,) fitted to the distances between measured landmarks (L, 3) world
+    metres (NaN: unmeasured) that no pose can change (:func:`mocap.body.catalogue.rigid_pairs`),
+    by :func:`fit_shape` (prior N(``prior_mean``, ``prior_std``^2), default the model's N(0, I)).
+    Distances more than ``outlier_sigma`` shape-model sigmas from their mean are ignored; a
+    fitted body with a bone outside +-``bound_sigma`` sigma is shrunk towards the mean shape
+    until every bone is inside, and the second value says so (None: not shrunk)."""
+    rest0, basis = rest_point_basis(body, landmarks)
+    pairs = rigid_pairs(body, landmarks)
+    pair_model = length_model(rest0, basis, pairs)
+    lengths = pair_model.lengths(measured)
+    lengths[np.abs(pair_model.z_scores(lengths)) > outlier_sigma] = np.nan
+    alpha = fit_shape(rest0, basis, pairs, lengths, length_sigma, prior_mean=prior_mean, prior_std=prior_std)
+    bones, bone_names = skeleton_length_model(body)
+    _, joints = body.rest(alpha[None])
+    z = bones.z_scores(bones.lengths(np.asarray(joints[0], np.float64)))
+    if np.abs(z).max() <= bound_sigma:
+        return alpha, None
+    worst = int(np.argmax(np.abs(z)))
+    alpha, scale = shrink_to_bounds(body, alpha, bones, bound_sigma)
+    return alpha, (f"fitted shape beyond the model's bounds ({bone_names[worst]} at {z[worst]:+.1f} "
+                   f"sigma), shrunk towards the mean by {scale:.2f} to +-{bound_sigma:g} sigma")
 
 
 def root_rigid(body: BodyModel, landmarks: LandmarkSet, tolerance: float = 1e-4) -> np.ndarray:

@@ -18,8 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from mocap.body.bone_lengths import length_model, shrink_to_bounds, skeleton_length_model
-from mocap.body.catalogue import dof_moves, make_landmark_set, rest_point_basis, rigid_pairs
+from mocap.body.catalogue import dof_moves, make_landmark_set
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.root_motion import predict_root
@@ -42,10 +41,10 @@ from mocap.trackers.markers.offsets import local_residuals, robust_offsets
 from mocap.trackers.markers.refine import refine_pose
 from mocap.trackers.markers.settings import MarkerInit, MarkerSettings  # noqa: F401  (MarkerInit: re-exported)
 from mocap.trackers.markers.startup import (
-    fit_shape,
     neutral_pose,
     pinhole_rig,
     root_rigid,
+    shape_from_landmarks,
     triangulate_candidates,
 )
 from mocap.trackers.step import AnnealedStep
@@ -144,26 +143,14 @@ class MarkerAPFTracker(AnnealedStep):
         if not sources:
             raise ValueError(f"{self.name}: frame {frame.index}: fewer than 3 landmarks could be "
                              "triangulated (the initialisation needs labelled detections in >= 2 views)")
-        rest0, basis = rest_point_basis(self.body, lms)
-        pairs = rigid_pairs(self.body, lms)
-        pair_model = length_model(rest0, basis, pairs)
-        bones, bone_names = skeleton_length_model(self.body)
         tried: list[tuple[float, np.ndarray, np.ndarray, str]] = []
         for source, measured in sources:
             shapes = [("mean shape", np.zeros(self.body.num_shape))]
             if self.init.fit_shape:
-                lengths = pair_model.lengths(measured)
-                lengths[np.abs(pair_model.z_scores(lengths)) > self.init.outlier_sigma] = np.nan
-                alpha = fit_shape(rest0, basis, pairs, lengths, self.init.length_sigma)
-                _, joints = self.body.rest(alpha[None])
-                z = bones.z_scores(bones.lengths(np.asarray(joints[0], np.float64)))
-                if np.abs(z).max() > self.init.bound_sigma:
-                    worst = int(np.argmax(np.abs(z)))
-                    alpha, scale = shrink_to_bounds(self.body, alpha, bones, self.init.bound_sigma)
-                    self.start_up_flags.append(
-                        f"start-up ({source}): fitted shape beyond the model's bounds ({bone_names[worst]} "
-                        f"at {z[worst]:+.1f} sigma), shrunk towards the mean by {scale:.2f} to "
-                        f"+-{self.init.bound_sigma:g} sigma")
+                alpha, flag = shape_from_landmarks(self.body, lms, measured, self.init.length_sigma,
+                                                   self.init.outlier_sigma, self.init.bound_sigma)
+                if flag is not None:
+                    self.start_up_flags.append(f"start-up ({source}): {flag}")
                 shapes.insert(0, ("fitted shape", alpha))
             for shape_name, alpha in shapes:
                 shaped = self.body.shaped(alpha)
