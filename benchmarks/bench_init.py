@@ -81,7 +81,8 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
     return {"data": data, "seed": seed, "label": "", "mocap": root, "commit": _commit(root),
             "seconds": round(seconds, 2), "frame0_mm": round(float(acc["per_frame_mm"][0]), 2),
             "margin": info.get("margin"), "load_before": round(load, 2),
-            "load_after": round(os.getloadavg()[0], 2), "threads": threads}
+            "load_after": round(os.getloadavg()[0], 2), "threads": threads,
+            "hypotheses": info.get("hypotheses")}
 
 
 def main() -> None:
