@@ -46,7 +46,6 @@ def test_the_energy_mesh_pose_search_finds_the_known_pose(walk, monkeypatch):
     assert evaluated[coarse] == 2 * 6 * 30 * 6 and evaluated[body.num_vertices] < 20
 
 
-@pytest.mark.slow
 def test_a_hypothesis_far_behind_after_a_round_is_dropped(walk):
     body, seq = walk
     cheap = dict(headings=4, hypotheses=1, keep=2, rounds=2, pose_particles=12, pose_layers=3,
