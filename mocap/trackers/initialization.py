@@ -25,7 +25,8 @@ and the ranking is where feet, hands and the face decide). What does not change 
 hypotheses is built once: the downscaled masks and their distance transforms (coarse and
 fine), the observed contours, the contour matcher, and one energy per shape and resolution.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
-wrong one is visible (``margin``: the winner's lead over the runner-up, relative).
+wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
+hypothesis, its lead when that was dropped).
 """
 
 from __future__ import annotations
@@ -295,20 +296,23 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
                 for i in alive:
                     if lead[i] > settings.prune_margin:
                         state[i][0]["pruned_after_round"] = r + 1
+                        state[i][0]["lead_when_pruned"] = lead[i]
                 alive = [i for i in alive if lead[i] <= settings.prune_margin]
     finals = []
     for i, (hyp, chi, a) in enumerate(state):
         if i in alive:
             chi = local(a, chi)
             hyp["final_energy"] = fine_energy(a, chi)
+            finals.append((hyp["final_energy"], chi, a))
         else:                                  # dropped: its energy when it was dropped
             hyp["final_energy"] = hyp["round_energy"][-1]
-        finals.append((hyp["final_energy"], i in alive, chi, a))
-    finals.sort(key=lambda t: (not t[1], t[0]))    # the survivors first (the pruned are behind)
-    _, _, chi, alpha = finals[0]
+    finals.sort(key=lambda t: t[0])
+    _, chi, alpha = finals[0]
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
-    diag["margin"] = (float((finals[1][0] - finals[0][0]) / max(finals[0][0], 1e-12))
-                      if len(finals) > 1 else None)
+    # the winner's lead: over the runner-up at the end, or over a dropped one when it was dropped
+    leads = [(e - finals[0][0]) / max(finals[0][0], 1e-12) for e, _, _ in finals[1:]]
+    leads += [state[i][0]["lead_when_pruned"] for i in range(len(state)) if i not in alive]
+    diag["margin"] = float(min(leads)) if leads else None
     return chi, alpha, diag
 
 

@@ -69,7 +69,7 @@ def test_a_hypothesis_far_behind_after_a_round_is_dropped(walk):
     winner = kept_one[int(np.argmin(e1))]
     assert loser["pruned_after_round"] == 1 and len(loser["shape_shift_m"]) == 1
     assert loser["final_energy"] == loser["round_energy"][0] and "pruned_after_round" not in winner
-    assert len(winner["shape_shift_m"]) == 2 and one["margin"] > 0
+    assert len(winner["shape_shift_m"]) == 2 and one["margin"] == loser["lead_when_pruned"] > 0
     # round 1 is the same computation either way
     np.testing.assert_allclose(sorted(e1), sorted(h["round_energy"][0] for h in kept_all))
 
