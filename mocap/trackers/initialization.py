@@ -15,9 +15,18 @@ No ground truth is used. Starting from the mean body:
    search on E_S with the joint angles held fixed and, with ``shape_translate``, the body's
    position searched with them: a taller body on the same root would push its feet through
    the floor, so without it the search prefers a body of the mean height); the hypothesis of
-   lowest fine E_S wins.
+   lowest fine E_S wins. After every round but the last, a kept hypothesis whose fine E_S is
+   more than ``prune_margin`` (relative) above the best one's is dropped: where the margin is
+   large the loser's remaining rounds are not spent.
+The pose searches (heading search aside) score E_S on the energy mesh (``energy_mesh``
+triangles, :mod:`mocap.body.energy_mesh`, as the silhouette APFs do); the shape searches and
+the fine E_S that ranks hypotheses keep the full mesh (the shape changes the whole surface,
+and the ranking is where feet, hands and the face decide). What does not change between
+hypotheses is built once: the downscaled masks and their distance transforms (coarse and
+fine), the observed contours, the contour matcher, and one energy per shape and resolution.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
-wrong one is visible (``margin``: the winner's lead over the runner-up, relative).
+wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
+hypothesis, its lead when that was dropped).
 """
 
 from __future__ import annotations
@@ -26,18 +35,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mocap.body.model import BodyModel
+from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for
+from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.twists import se3_log
 from mocap.cameras import Rig, pixel_rays
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
+from mocap.settings import check
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.shape_search import shape_energy, shifted  # noqa: F401  (shifted re-exported)
 
 #: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
 #: inputs and settings: part of the initialisation cache's key (:mod:`mocap.trackers.init_cache`)
-INITIALIZER_VERSION = 2
+#: a kept hypothesis whose fine E_S is more than this (relative) above the best one's after a
+#: round is dropped (InitSettings.prune_margin). On the mismatch and real-motion DEV sequences
+#: (seed 0) the round-1 leader won in the end wherever it led by 18 % or more (leads of 18-160 %),
+#: and lost twice where it led by 10 %: 0.25 keeps those close calls (docs/results/speed.md).
+PRUNE_MARGIN = 0.25
+
+INITIALIZER_VERSION = 3      # 3: pose searches on the energy mesh, compiled shape energy, pruning
 
 
 @dataclass(frozen=True)
@@ -57,6 +74,15 @@ class InitSettings:
     select_resolution: int = 512  # E_S resolution that ranks hypotheses (px, longest side)
     partitioned: bool = True      # pose search torso first, then limb by limb, then all DOFs
     shape_translate: float = 0.2  # the shape search also shifts the body by up to this (m); 0: off
+    energy_mesh: int | None = ENERGY_MESH_FACES  # pose searches' E_S mesh (triangles); None: full mesh
+    prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
+                                  # E_S) behind the best after a round; None: never
+
+    def __post_init__(self):
+        check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
+              "null (the full mesh) or >= 4 triangles")
+        check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
+              "null (never) or >= 0 (relative)")
 
 
 def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -151,9 +177,25 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
         raise ValueError("silhouette initialisation needs the subject in at least 2 views")
     center = closest_point_to_rays(np.array(origins), np.array(dirs))
     alpha = np.zeros(body.num_shape)
-    # 2. heading search with the mean body in the rest pose
-    shaped = body.shaped(alpha)
-    sil = SilhouetteEnergy(shaped, rig, scale)
+    mesh = energy_mesh_for(body, settings.energy_mesh)     # None: the full mesh
+    # built once, shared by every hypothesis: shaped bodies and energies per shape (and scale)
+    shapes: dict[bytes, ShapedBody] = {}
+    energies: dict[tuple, SilhouetteEnergy] = {}
+
+    def shaped_for(a: np.ndarray) -> ShapedBody:
+        key = np.asarray(a, np.float64).tobytes()
+        if key not in shapes:
+            shapes[key] = body.shaped(a)
+        return shapes[key]
+
+    def energy_for(a: np.ndarray, at: float, coarse: bool) -> SilhouetteEnergy:
+        key = (np.asarray(a, np.float64).tobytes(), at, coarse)
+        if key not in energies:
+            energies[key] = SilhouetteEnergy(shaped_for(a), rig, at, mesh=mesh if coarse else None)
+        return energies[key]
+
+    # 2. heading search with the mean body in the rest pose (full mesh: 12 poses)
+    sil = energy_for(alpha, scale, False)
     yaws = np.linspace(0, 2 * np.pi, settings.headings, endpoint=False)
     cands = np.zeros((len(yaws), body.num_dofs))
     for i, yaw in enumerate(yaws):
@@ -162,31 +204,30 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     diag = {"center": center.tolist(), "heading_energy": e_head.tolist()}
     std = np.r_[np.full(3, 0.05), np.full(3, 0.15), np.full(body.num_dofs - 6, 0.3)]
     obs = observed_contours(masks)
+    matcher = ContourMatcher(body, rig)
     apf = APFSettings(particles=settings.pose_particles, layers=settings.pose_layers, diffusion=0.7,
                       shrink=0.9)
     fine_scale = min(1.0, settings.select_resolution / float(np.max(rig.sizes)))
     fine_target = silhouette_target(masks, fine_scale, view_names=tuple(rig.names))
 
     def fine_energy(a: np.ndarray, chi: np.ndarray) -> float:
-        return float(SilhouetteEnergy(body.shaped(a), rig, fine_scale)(chi[None], fine_target)[0])
+        return float(energy_for(a, fine_scale, False)(chi[None], fine_target)[0])
 
     groups = dof_partitions(body) if settings.partitioned else []
 
     def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
-        shaped = body.shaped(a)
-        sil = SilhouetteEnergy(shaped, rig, scale)
+        sil = energy_for(a, scale, True)          # the energy mesh
 
         def search(x0, free=None):
             return run_apf(lambda x: sil(x, target), x0, spread, body.limits, apf, rng, free=free,
-                           root_point=shaped.rest_joints[0])[0]
+                           root_point=sil.shaped.rest_joints[0])[0]
 
         for free in groups:                       # partitioned: torso first, then each limb
             chi = search(chi, free)
         return local(a, search(chi))
 
     def local(a: np.ndarray, chi: np.ndarray) -> np.ndarray:
-        matcher = ContourMatcher(body, rig)
-        chi, _ = optimize_pose(body.shaped(a), chi, lambda v, m=matcher: m(v, obs), settings.local_iterations)
+        chi, _ = optimize_pose(shaped_for(a), chi, lambda v: matcher(v, obs), settings.local_iterations)
         return chi
 
     # 3. hypotheses: distinct headings, their opposites, each with its limbs swapped
@@ -222,16 +263,17 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     move_limits = np.vstack([shape_limits, np.tile([-move, move], (3, 1))])
     shape_apf = APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
                             diffusion=0.7, shrink=0.9)
-    finals = []
-    for hyp in kept:
-        chi, a = hyp["chi"], alpha.copy()
-        for r in range(settings.rounds):
+    state = [[hyp, hyp["chi"], alpha.copy()] for hyp in kept]     # hypothesis, pose, shape
+    alive = list(range(len(state)))
+    for r in range(settings.rounds):          # round by round, so that losers can be dropped
+        for i in alive:
+            hyp, chi, a = state[i]
             # 4a. pose: annealed search on E_S, then local optimisation on the contours
             chi = refine_pose(a, chi, std * (0.5 ** (r + 1)))
             # 4b. shape: annealed search over the first components, pose fixed; with
             # shape_translate also one that moves the body, the lower E_S of the two kept
             # (the larger search loses a little where the mean height was right)
-            energy = shape_energy(body, small, chi, target, C, translate=True)
+            energy = shape_energy(body, small, chi, target, C, translate=True, compiled=True)
             c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
                            shape_std * (0.6**r), shape_limits, shape_apf, rng)
             c = np.r_[c, np.zeros(3)]
@@ -244,14 +286,33 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             a = a.copy()
             a[:C] = c[:C]
             chi = shifted(chi, c[C:]) if move > 0 else chi
-        chi = local(a, chi)
-        hyp["final_energy"] = fine_energy(a, chi)
-        finals.append((hyp["final_energy"], chi, a))
+            state[i][1:] = [chi, a]
+        if len(alive) > 1 and r < settings.rounds - 1:
+            for i in alive:
+                state[i][0].setdefault("round_energy", []).append(fine_energy(state[i][2], state[i][1]))
+            if settings.prune_margin is not None:
+                best = min(state[i][0]["round_energy"][-1] for i in alive)
+                lead = {i: (state[i][0]["round_energy"][-1] - best) / max(best, 1e-12) for i in alive}
+                for i in alive:
+                    if lead[i] > settings.prune_margin:
+                        state[i][0]["pruned_after_round"] = r + 1
+                        state[i][0]["lead_when_pruned"] = lead[i]
+                alive = [i for i in alive if lead[i] <= settings.prune_margin]
+    finals = []
+    for i, (hyp, chi, a) in enumerate(state):
+        if i in alive:
+            chi = local(a, chi)
+            hyp["final_energy"] = fine_energy(a, chi)
+            finals.append((hyp["final_energy"], chi, a))
+        else:                                  # dropped: its energy when it was dropped
+            hyp["final_energy"] = hyp["round_energy"][-1]
     finals.sort(key=lambda t: t[0])
     _, chi, alpha = finals[0]
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
-    diag["margin"] = (float((finals[1][0] - finals[0][0]) / max(finals[0][0], 1e-12))
-                      if len(finals) > 1 else None)
+    # the winner's lead: over the runner-up at the end, or over a dropped one when it was dropped
+    leads = [(e - finals[0][0]) / max(finals[0][0], 1e-12) for e, _, _ in finals[1:]]
+    leads += [state[i][0]["lead_when_pruned"] for i in range(len(state)) if i not in alive]
+    diag["margin"] = float(min(leads)) if leads else None
     return chi, alpha, diag
 
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.body.twists import se3_exp, se3_log
-from mocap.cameras import Rig, project
+from mocap.cameras import Rig, camera_coordinates, project
+from mocap.energy import fused
 from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget, chamfer_energy, silhouette_target
 from mocap.render import get_rasterizer
 from mocap.settings import check
@@ -34,20 +35,25 @@ def shifted(chi: np.ndarray, shift: np.ndarray) -> np.ndarray:
 
 
 def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, components: int,
-                 translate: bool = False, alpha: np.ndarray | None = None):
+                 translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False):
     """E_S as a function of the first ``components`` shape coefficients: a function of
     (P, components) -> (P,), the mean over frames of E_S with the poses chis (N, D) (or one
     pose (D,)) held, against ``targets`` (one :class:`SilhouetteTarget` per pose, at ``rig``'s
     resolution). The other coefficients are those of ``alpha`` (None: zeros). With
     ``translate``, (P, components + 3): three more coordinates shift every posed body by the
     same world offset (metres; a taller body on the same root would push its feet through
-    the floor)."""
+    the floor). ``compiled``: the compiled kernel of :mod:`mocap.energy.fused` (rasterise and
+    chamfer in one pass per particle-view, as :class:`SilhouetteEnergy` runs it: the same
+    energies up to summation order) when numba imports, instead of the scanline rasterizer
+    and :func:`chamfer_energy` (which the trackers' shape refinement keeps)."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
     if isinstance(targets, SilhouetteTarget):
         targets = [targets]
     if len(targets) != len(chis):
         raise ValueError(f"{len(chis)} poses for {len(targets)} silhouette targets")
     raster = get_rasterizer(body.faces, body.num_vertices)
+    kernel = (fused.FusedSilhouetteEnergy(body.faces, body.num_vertices)
+              if compiled and fused.numba_available() else None)
     base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
 
     def energy(a: np.ndarray) -> np.ndarray:
@@ -59,10 +65,13 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
             verts = body.pose(np.repeat(chi[None], len(a), axis=0), shapes).vertices
             if translate:
                 verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
-            px, depth = project(rig, verts, return_depth=True)
-            h, w = target.size
-            masks = raster(px, h, w, depth, near=0.05)
-            total += np.nanmean(chamfer_energy(masks, target)[:, target.valid], axis=1)
+            if kernel is not None:
+                per_view = kernel(camera_coordinates(rig, verts), rig, target, near=0.05)
+            else:
+                px, depth = project(rig, verts, return_depth=True)
+                h, w = target.size
+                per_view = chamfer_energy(raster(px, h, w, depth, near=0.05), target)
+            total += np.nanmean(per_view[:, target.valid], axis=1)
         return total / len(chis)
 
     return energy

@@ -76,3 +76,21 @@ def test_a_tracker_without_init_settings_is_never_cached(tmp_path):
     initial_estimate(t, frame, tmp_path)
     initial_estimate(t, frame, tmp_path)
     assert t.calls == 2 and not list(tmp_path.iterdir())
+
+
+def test_the_key_changes_with_the_initialiser_version_and_its_settings(monkeypatch):
+    import mocap.trackers.init_cache as init_cache
+    from mocap.trackers.initialization import InitSettings
+
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    frame = Frame(index=0, masks=np.ones((len(rig.names), 4, 4), bool), images=None, detections=None)
+    t = Counting(body, rig)
+    t.init_settings = InitSettings()
+    key = init_cache._key(t, frame)
+    assert init_cache._key(t, frame) == key
+    for changed in (InitSettings(energy_mesh=None), InitSettings(prune_margin=0.123)):
+        t.init_settings = changed
+        assert init_cache._key(t, frame) != key
+    t.init_settings = InitSettings()
+    monkeypatch.setattr(init_cache, "INITIALIZER_VERSION", init_cache.INITIALIZER_VERSION - 1)
+    assert init_cache._key(t, frame) != key         # the results of version 2 are not served

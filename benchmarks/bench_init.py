@@ -1,0 +1,110 @@
+"""Silhouette self-initialisation alone: seconds and frame-0 joint error per sequence (issue 28).
+
+    PYTHONPATH=$PWD OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_init.py \
+        [--data mismatch_box,mismatch_walk,mismatch_gesture] [--seed 0] [--threads 1] \
+        [--label new] [--out /tmp/init.jsonl] [--profile /tmp/init.prof]
+
+For every data config (mocap_cli/conf/data) the tracker config (``--tracker``, default
+``apf_prior``: every silhouette tracker initialises with the same settings) is built as
+``mocap track data=<name> init.mode=tracker seed=<seed>`` builds it, and
+:func:`mocap.trackers.init_cache.initial_estimate` runs without a cache (so nothing stored is
+reused). Printed and appended to ``--out`` (one JSON line per sequence): seconds, the
+frame-0 error (raw MPJPE over the joints matched by name, what a run's ``per_frame_mm[0]``
+holds), the winner's margin, the load (``os.getloadavg``) before and after, and the
+``mocap`` package the run imported, so that two checkouts can be compared in one session by
+running this file with PYTHONPATH pointing at each in turn::
+
+    for d in mismatch_box mismatch_walk; do for root in /work/main $PWD; do \
+        PYTHONPATH=$root .venv/bin/python benchmarks/bench_init.py --data $d \
+        --label $root --out /tmp/ab.jsonl; done; done
+
+``--profile FILE``: cProfile of the (first) initialisation, its top lines printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import json
+import os
+import pstats
+import subprocess
+import time
+
+import numpy as np
+
+import mocap
+from mocap.eval.run_metrics import accuracy_metrics
+from mocap.threads import thread_budget
+from mocap.trackers.init_cache import initial_estimate
+from mocap.trackers.run import frame_of
+from mocap_cli.hydra_edge import build, compose
+
+MISMATCH = "mismatch_box,mismatch_walk,mismatch_gesture"
+DEV = ("real_walk_heavy_man,real_bow_tall_man,real_bye_petite_woman,real_call_athletic_woman,"
+       "real_slash_heavy_man,real_dance-short_petite_woman")
+TEST = ("real_byebye_petite_woman,real_guide_athletic_woman,real_kick_athletic_woman,"
+        "real_punch_tall_man,real_walk-left_heavy_man,real_walk-right_tall_man")
+
+
+def _commit(path: str) -> str:
+    try:
+        return subprocess.run(["git", "-C", path, "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | None) -> dict:
+    cfg = compose("track", [f"data={data}", f"tracker={tracker}", f"seed={seed}", "init.mode=tracker"])
+    body = build(cfg.body)
+    seq = build(cfg.data, body=body)
+    trk = build(cfg.tracker, body=body, rig=seq.rig, rng=np.random.default_rng([seed, 1]),
+                keep_particles=False)
+    frame = frame_of(seq, 0)
+    load = os.getloadavg()[0]
+    prof = cProfile.Profile() if profile else None
+    with thread_budget(threads):
+        t = time.perf_counter()
+        if prof is not None:
+            prof.enable()
+        chi, alpha, info = initial_estimate(trk, frame, cache=None)
+        if prof is not None:
+            prof.disable()
+        seconds = time.perf_counter() - t
+    if prof is not None:
+        prof.dump_stats(profile)
+        pstats.Stats(profile).sort_stats("cumulative").print_stats(30)
+        pstats.Stats(profile).sort_stats("tottime").print_stats(20)
+    acc = accuracy_metrics(body, seq, chi[None], alpha)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(mocap.__file__)))
+    return {"data": data, "seed": seed, "label": "", "mocap": root, "commit": _commit(root),
+            "seconds": round(seconds, 2), "frame0_mm": round(float(acc["per_frame_mm"][0]), 2),
+            "margin": info.get("margin"), "load_before": round(load, 2),
+            "load_after": round(os.getloadavg()[0], 2), "threads": threads,
+            "hypotheses": info.get("hypotheses")}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", default=MISMATCH, help="data configs, comma-separated; or mismatch, dev, test")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--tracker", default="apf_prior")
+    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--label", default="")
+    p.add_argument("--out", default=None, help="append one JSON line per sequence to this file")
+    p.add_argument("--profile", default=None, help="cProfile the first initialisation into this file")
+    a = p.parse_args()
+    names = {"mismatch": MISMATCH, "dev": DEV, "test": TEST}
+    data = [d for part in a.data.split(",") for d in names.get(part, part).split(",") if d]
+    for i, d in enumerate(data):
+        row = run_one(d, a.seed, a.tracker, a.threads, a.profile if i == 0 else None)
+        row["label"] = a.label
+        print(json.dumps(row), flush=True)
+        if a.out:
+            with open(a.out, "a") as fh:
+                fh.write(json.dumps(row) + "\n")
+
+
+if __name__ == "__main__":
+    main()

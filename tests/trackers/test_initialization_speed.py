@@ -1,0 +1,93 @@
+"""The initialiser's faster search (issue 28): its pose searches score E_S on the energy mesh
+and still find the known pose; hypotheses far behind after a round are dropped; the shape
+search's compiled energy equals the numpy one; the new settings are checked."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mocap
+import mocap.trackers.initialization as initialization
+from mocap.body.energy_mesh import ENERGY_MESH_FACES
+from mocap.eval.by_name import NameScorer
+from mocap.settings import SettingError
+from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes
+
+
+@pytest.fixture(scope="module")
+def walk():
+    body = mocap.load_body("paper22")
+    return body, mocap.synthetic_sequence(body, cameras="ring4_small", motion="walk", frames=1, seed=3)
+
+
+def test_the_energy_mesh_pose_search_finds_the_known_pose(walk, monkeypatch):
+    body, seq = walk
+    evaluated = {}                                  # mesh vertices -> particles scored
+
+    class Counted(initialization.SilhouetteEnergy):
+        def __call__(self, chi, target):
+            n = self.shaped.model.num_vertices if self.mesh is None else self.mesh.num_vertices
+            evaluated[n] = evaluated.get(n, 0) + len(np.atleast_2d(chi))
+            return super().__call__(chi, target)
+
+    monkeypatch.setattr(initialization, "SilhouetteEnergy", Counted)
+    settings = InitSettings(headings=8, hypotheses=1, keep=1, rounds=0, pose_particles=30, pose_layers=6,
+                            select_resolution=256)
+    assert settings.energy_mesh == ENERGY_MESH_FACES
+    chi, alpha, diag = initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0),
+                                                   settings)
+    error = NameScorer(body, seq.gt).metrics(body.shaped(alpha), chi[None])["mpjpe_mm"]
+    assert error < 60, error                        # the mean body, not refined: ~40 mm
+    coarse = min(evaluated)
+    assert coarse < body.num_vertices / 3 and set(evaluated) == {coarse, body.num_vertices}
+    # the searches (2 headings x 6 partitioned searches x 30 x 6) ran on the energy mesh; the
+    # heading scan and the hypotheses' ranking (full mesh) are a handful of poses
+    assert evaluated[coarse] == 2 * 6 * 30 * 6 and evaluated[body.num_vertices] < 20
+
+
+def test_a_hypothesis_far_behind_after_a_round_is_dropped(walk):
+    body, seq = walk
+    cheap = dict(headings=4, hypotheses=1, keep=2, rounds=2, pose_particles=12, pose_layers=3,
+                 shape_particles=10, shape_layers=3, resolution=128, select_resolution=160,
+                 partitioned=False, local_iterations=3)
+
+    def run(margin):
+        return initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0),
+                                           InitSettings(prune_margin=margin, **cheap))
+
+    chi_all, alpha_all, all_ = run(None)
+    chi_one, alpha_one, one = run(0.0)
+    kept_all = [h for h in all_["hypotheses"] if "final_energy" in h]
+    kept_one = [h for h in one["hypotheses"] if "final_energy" in h]
+    assert len(kept_all) == len(kept_one) == 2
+    assert not any("pruned_after_round" in h for h in kept_all)
+    assert all(len(h["shape_shift_m"]) == 2 for h in kept_all)          # both ran both rounds
+    # margin 0: after round 1 only the best goes on, the other keeps its round-1 energy
+    e1 = [h["round_energy"][0] for h in kept_one]
+    loser = kept_one[int(np.argmax(e1))]
+    winner = kept_one[int(np.argmin(e1))]
+    assert loser["pruned_after_round"] == 1 and len(loser["shape_shift_m"]) == 1
+    assert loser["final_energy"] == loser["round_energy"][0] and "pruned_after_round" not in winner
+    assert len(winner["shape_shift_m"]) == 2 and one["margin"] == loser["lead_when_pruned"] > 0
+    # round 1 is the same computation either way
+    np.testing.assert_allclose(sorted(e1), sorted(h["round_energy"][0] for h in kept_all))
+
+
+@pytest.mark.parametrize("field,value", [("energy_mesh", 2), ("prune_margin", -0.1)])
+def test_bad_settings_name_the_setting(field, value):
+    with pytest.raises(SettingError, match=f"setting {field} = "):
+        InitSettings(**{field: value})
+
+
+def test_the_compiled_shape_energy_equals_the_numpy_one():
+    from mocap.trackers.shape_search import shape_energy
+    from tests.trackers.test_initialization_shape import C, tall_subject
+
+    body, rig, chi, target = tall_subject()
+    rng = np.random.default_rng(2)
+    x = np.c_[rng.normal(0, 1, (6, C)), rng.uniform(-0.1, 0.1, (6, 3))]
+    slow = shape_energy(body, rig, chi, target, C, translate=True)(x)
+    fast = shape_energy(body, rig, chi, target, C, translate=True, compiled=True)(x)
+    assert np.ptp(slow) > 0.5                       # shapes far apart score differently
+    np.testing.assert_allclose(fast, slow, rtol=1e-5)
