@@ -50,8 +50,7 @@ class Columns:
                     if lengths is not None and n != lengths:
                         raise ValueError(f"{entity}: fields of one row differ in length")
                     lengths = n
-                    flat = np.concatenate(rows)
-                    fields[k] = list(flat) if flat.ndim > 2 else flat     # line strips: a list of strips
+                    fields[k] = np.concatenate(rows)     # line strips (N, 2, 3): one array, not a list
                 else:
                     fields[k] = rows
             columns = archetype.columns(**fields)

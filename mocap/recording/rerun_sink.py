@@ -62,7 +62,7 @@ BODY_RGB = (235, 120, 40)     # the estimated mesh's base colour (orange), shade
 DIFF_COLORS = {"observed_only": (40, 200, 60), "estimate_only": (190, 40, 200), "both": (200, 200, 200)}
 #: class ids of the silhouette difference (observed + 2 x estimate)
 DIFF_CLASSES = {1: "observed_only", 2: "estimate_only", 3: "both"}
-BATCH_FRAMES = 25             # frames gathered before a send_columns batch
+BATCH_FRAMES = 100            # frames gathered before a send_columns batch (a mesh: ~60 kB per frame)
 JPEG_QUALITY = 80
 
 
