@@ -21,6 +21,7 @@ class Columns:
         # (entity, timeline, archetype) -> (times, {field: [row values]})
         self._rows: dict[tuple[str, str, type], tuple[list[int], dict[str, list]]] = {}
         self.pending = 0
+        self.nbytes = 0          # about what the gathered rows hold (arrays and blobs)
 
     def add(self, entity: str, archetype: type, t: int, timeline: str = "frame", **fields) -> None:
         """One row of ``archetype``'s ``fields`` for ``entity`` at time ``t`` on ``timeline``."""
@@ -31,6 +32,7 @@ class Columns:
         times.append(int(t))
         for k, v in fields.items():
             values[k].append(v)
+            self.nbytes += v.nbytes if isinstance(v, np.ndarray) else len(v) if isinstance(v, bytes) else 8
         self.pending += 1
 
     def scalar(self, entity: str, t: int, value: float, timeline: str = "frame") -> None:
@@ -58,4 +60,4 @@ class Columns:
                 columns = columns.partition(lengths)
             rec.send_columns(entity, indexes=[rr.TimeColumn(timeline, sequence=times)], columns=columns)
         self._rows.clear()
-        self.pending = 0
+        self.pending = self.nbytes = 0

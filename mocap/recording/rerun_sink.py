@@ -62,7 +62,8 @@ BODY_RGB = (235, 120, 40)     # the estimated mesh's base colour (orange), shade
 DIFF_COLORS = {"observed_only": (40, 200, 60), "estimate_only": (190, 40, 200), "both": (200, 200, 200)}
 #: class ids of the silhouette difference (observed + 2 x estimate)
 DIFF_CLASSES = {1: "observed_only", 2: "estimate_only", 3: "both"}
-BATCH_FRAMES = 100            # frames gathered before a send_columns batch (a mesh: ~60 kB per frame)
+BATCH_FRAMES = 100            # frames gathered before a send_columns batch (a mesh: ~60 kB per frame) ...
+BATCH_BYTES = 32_000_000      # ... or fewer when they hold more bytes (full-size images)
 JPEG_QUALITY = 80
 
 
@@ -118,7 +119,7 @@ class RerunSink:
         self.shaped = None
         self.cols = Columns()
         self.frames_pending = 0
-        self.styled: set[str] = set()     # particle entities whose style is logged
+        self.styled: set = set()          # entities whose static style / format is logged
         self.last = None                  # the last frame's body (summary: logged at the end)
         self.motion_log = MotionLogger(body.dof_names, self.rig_small if s.views else None)
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -193,7 +194,7 @@ class RerunSink:
             if s.views:
                 self._log_views(frame, vertices)
         self.frames_pending += 1
-        if self.frames_pending >= BATCH_FRAMES:
+        if self.frames_pending >= BATCH_FRAMES or cols.nbytes > BATCH_BYTES:
             cols.send(rec)
             self.frames_pending = 0
 
@@ -236,7 +237,12 @@ class RerunSink:
             obs = downscale_masks(frame.masks, self.settings.scale)
             diff = obs.astype(np.uint8) + 2 * np.asarray(est, np.uint8)        # DIFF_CLASSES
             for c, name in enumerate(names):
-                rec.log(f"views/{name}/silhouette_diff", rr.SegmentationImage(diff[c]))
+                entity = f"views/{name}/silhouette_diff"
+                if entity not in self.styled:      # the image format once, the pixels per frame
+                    self.styled.add(entity)
+                    rec.log(entity, rr.SegmentationImage.from_fields(format=rr.components.ImageFormat(
+                        width=w, height=h, channel_datatype="U8")), static=True)
+                self.cols.add(entity, rr.SegmentationImage, f, buffer=diff[c].tobytes())
         if self.settings.images and frame.images is not None:
             for c, name in enumerate(names):
                 img = frame.images[c]
@@ -244,8 +250,8 @@ class RerunSink:
                     img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
                 _, jpeg = cv2.imencode(".jpg", np.ascontiguousarray(img[..., ::-1]),     # RGB -> BGR
                                        [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
-                rec.log(f"views/{name}/image", rr.EncodedImage(contents=jpeg.tobytes(),
-                                                               media_type="image/jpeg"))
+                self.cols.add(f"views/{name}/image", rr.EncodedImage, f, blob=jpeg.tobytes(),
+                              media_type="image/jpeg")
         if frame.detections is not None and len(frame.detections):
             det = frame.detections
             for c, name in enumerate(names):
