@@ -21,6 +21,8 @@ each level. Medians over the rounds. Columns:
                off. CPU time rather than wall time: on a shared machine the wall time of a run
                varies by more than the recording costs
     of which bg  the other threads' share of it
+    fixed s    the sink's start and finish (main thread CPU): paid once per run
+    ms/frame   the rest of the cost per frame (CPU ms): what a long run pays per frame
     wall       (run time with recording - run time without) / tracking time without: the same
                cost in wall time (noisy on a loaded machine; keeping particles in the tracker
                shows here only)
@@ -86,13 +88,14 @@ class Timed:
     finish()."""
 
     def __init__(self, sink):
-        self.sink, self.seconds = sink, 0.0
+        self.sink, self.seconds, self.fixed = sink, 0.0, 0.0
         self.path = getattr(sink, "path", None)
 
     def start(self, *a):
         t = time.thread_time()
         self.sink.start(*a)
         self.seconds += time.thread_time() - t
+        self.fixed += time.thread_time() - t
 
     def frame(self, *a):
         t = time.thread_time()
@@ -103,6 +106,7 @@ class Timed:
         t = time.thread_time()
         self.sink.finish(*a, **k)
         self.seconds += time.thread_time() - t
+        self.fixed += time.thread_time() - t
 
 
 def one_run(out: Path, config: dict, body, seq, tracker_node, variant: str, legacy) -> dict:
@@ -130,7 +134,7 @@ def one_run(out: Path, config: dict, body, seq, tracker_node, variant: str, lega
         tracking_module.make_sink = original
     rrd = out / "recording.rrd"
     return {"total": total, "main": main, "background": background, "track": m["tracking_seconds"],
-            "sink": timed["sink"].seconds, "frames": m["frames"],
+            "sink": timed["sink"].seconds, "fixed": timed["sink"].fixed, "frames": m["frames"],
             "bytes": rrd.stat().st_size if rrd.is_file() else 0}
 
 
@@ -166,7 +170,7 @@ def main(argv=None) -> int:
                 order = variants if r % 2 == 0 else variants[::-1]
                 for v in order:
                     runs[v].append(one_run(Path(tmp) / f"{v}_{r}", config, body, seq, cfg.tracker, v, legacy))
-        keys = ("total", "main", "background", "track", "sink", "bytes")
+        keys = ("total", "main", "background", "track", "sink", "fixed", "bytes")
         med = {v: {k: statistics.median(x[k] for x in rs) for k in keys} for v, rs in runs.items()}
         track_off, off = med["off"]["track"], med["off"]
         cpu_off = off["main"] - off["sink"]          # the run without recording, main thread
@@ -178,6 +182,8 @@ def main(argv=None) -> int:
                 "cpu_s": cpu_off, "cost_cpu_s": cost,
                 "overhead": cost / cpu_off,
                 "background": (med[v]["background"] - off["background"]) / cpu_off,
+                "fixed_s": med[v]["fixed"] - off["fixed"],
+                "per_frame_ms": 1e3 * (cost - med[v]["fixed"] + off["fixed"]) / frames,
                 "wall_overhead": (med[v]["total"] - off["total"]) / track_off,
                 "mb_per_frame": med[v]["bytes"] / frames / 1e6,
             })
@@ -194,13 +200,14 @@ def main(argv=None) -> int:
 def print_table(rows, header=True) -> None:
     if header:
         print(f"{'tracker':<11} {'frames':>6} {'track s':>8} {'CPU s':>6}  {'recording':<9} {'overhead':>9} "
-              f"{'of which bg':>11} {'wall':>7} {'MB/frame':>9}")
+              f"{'of which bg':>11} {'fixed s':>8} {'ms/frame':>9} {'wall':>7} {'MB/frame':>9}")
     for r in rows:
         if r["variant"] == "off":
             continue
         print(f"{r['tracker']:<11} {r['frames']:>6} {r['track_off_s']:>8.2f} {r['cpu_s']:>6.2f}  "
               f"{r['variant']:<9} {100 * r['overhead']:>8.1f}% {100 * r['background']:>10.1f}% "
-              f"{100 * r['wall_overhead']:>6.1f}% {r['mb_per_frame']:>9.3f}")
+              f"{r['fixed_s']:>8.3f} {r['per_frame_ms']:>9.2f} {100 * r['wall_overhead']:>6.1f}% "
+              f"{r['mb_per_frame']:>9.3f}")
     sys.stdout.flush()
 
 
