@@ -68,11 +68,12 @@ JPEG_QUALITY = 80
 
 
 def blueprint(view_names: list[str]) -> rrb.Blueprint:
+    """The layout: the 3D view over the 2D views (none: the 3D view alone), plots on the right."""
     views = [rrb.Spatial2DView(origin=f"views/{n}", name=n) for n in view_names]
+    scene = rrb.Spatial3DView(origin="world", name="3D")
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(rrb.Spatial3DView(origin="world", name="3D"),
-                         rrb.Grid(*views, name="views"), row_shares=[3, 2]),
+            rrb.Vertical(scene, rrb.Grid(*views, name="views"), row_shares=[3, 2]) if views else scene,
             rrb.Vertical(
                 rrb.TimeSeriesView(origin="plots/error", name="joint error (mm)"),
                 rrb.TimeSeriesView(origin="plots/energy", name="energy terms"),
@@ -124,7 +125,7 @@ class RerunSink:
         self.motion_log = MotionLogger(body.dof_names, self.rig_small if s.views else None)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         rec = rr.RecordingStream("mocap", recording_id=info.metadata.get("run_id"))
-        rec.save(self.part, default_blueprint=blueprint(list(seq.rig.names)))
+        rec.save(self.part, default_blueprint=blueprint(list(seq.rig.names) if s.views else []))
         self.rec = rec
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         for cam in seq.rig:
