@@ -31,9 +31,10 @@ from mocap.recording.sink import NullSink
 
 @dataclass(frozen=True)
 class RecordingSettings:
-    """What a recording holds. level: summary | standard | full; every: views and meshes
-    every k-th frame; particles: False | True (first and last layer) | "all" (every layer);
-    images: log the input images; scale: 2D views relative to the camera images."""
+    """What a recording holds; the defaults are the standard level's. level: summary |
+    standard | full; every: views and meshes every k-th frame; particles: False | True
+    (first and last layer) | "all" (every layer); images: log the input images; scale: 2D
+    views relative to the camera images."""
 
     enabled: bool = True
     level: str = "standard"
@@ -63,11 +64,12 @@ class RecordingSettings:
         return bool(self.enabled and self.particles)
 
 
-#: each level's defaults of the options left at null (the one source of these defaults)
+#: each level's defaults of the options left at null (the one source of these defaults: the
+#: dataclass's are the standard level's, the others say where they differ)
 LEVELS: dict[str, RecordingSettings] = {
-    "summary": RecordingSettings(level="summary", particles=False, images=False, scale=0.25),
-    "standard": RecordingSettings(level="standard", particles=False, images=True, scale=0.25),
-    "full": RecordingSettings(level="full", particles="all", images=True, scale=1.0),
+    "summary": RecordingSettings(level="summary", images=False),
+    "standard": RecordingSettings(),
+    "full": RecordingSettings(level="full", particles="all", scale=1.0),
 }
 OPTIONS = ("enabled", "level", "every", "particles", "images", "scale")
 
