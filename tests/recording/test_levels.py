@@ -151,6 +151,7 @@ def test_settings_take_the_levels_defaults():
     s = recording_settings({"level": "summary", "scale": 0.5, "enabled": False})
     assert (s.level, s.scale, s.enabled, s.keep_particles) == ("summary", 0.5, False, False)
     assert recording_settings({"particles": True}).keep_particles
+    assert not recording_settings(None).keep_particles      # the default level keeps no particles
 
 
 @pytest.mark.parametrize("setting, words", [
@@ -192,3 +193,20 @@ def test_replay_summarises_a_new_recording(body, seq, tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"frames 0..{F - 1} ({F} logged)" in out and "/world/body/estimate" in out
     assert "mpjpe_mm: 11.5" in out
+
+
+def test_a_failed_run_keeps_the_frames_gathered_so_far(body, seq, tmp_path):
+    """Frames wait in a batch before they are sent: a run failing on frame 2 still leaves
+    frames 0 and 1 in recording.failed.rrd (and no recording.rrd)."""
+    sink = RerunSink(tmp_path / "recording.rrd", recording_settings(None))
+    sink.start(RunInfo("x: 1", {"run_id": "failed"}), body, seq)
+    shaped = body.shaped(seq.gt.alpha)
+    for f in range(2):
+        out = shaped.pose(seq.gt.chi[f])
+        sink.frame(frame_of(seq, f), Estimate(seq.gt.chi[f], seq.gt.alpha, StepDiagnostics()), out.joints[0],
+                   out.vertices[0], None, 20.0 + f, 0.1)
+    sink.finish(None, failed=True)
+    assert not (tmp_path / "recording.rrd").exists()
+    path = tmp_path / "recording.failed.rrd"
+    assert read_recording(path)["scalars"]["/plots/error/mpjpe_mm"] == {0: 20.0, 1: 21.0}
+    assert temporal_frames(path, "/world/body/estimate", "Mesh3D:vertex_positions") == [0, 1]
