@@ -156,16 +156,18 @@ class RerunSink:
     def finish(self, metrics: dict | None, failed: bool = False) -> None:
         if self.rec is None:
             return
-        if self.last is not None and not self.settings.per_frame_body:
-            self._log_body(*self.last)            # summary: the final body
-        self.cols.send(self.rec)
-        if metrics is not None:
-            self.rec.log("run/metrics", rr.TextDocument(json.dumps(metrics, indent=2)), static=True)
-        self.rec.flush()
-        self.rec.disconnect()
-        self.rec = None
-        target = self.path.with_name("recording.failed.rrd") if failed else self.path
-        self.part.replace(target)
+        try:
+            if self.last is not None and not self.settings.per_frame_body:
+                self._log_body(*self.last)            # summary: the final body
+            self.cols.send(self.rec)                  # the last batch
+            if metrics is not None:
+                self.rec.log("run/metrics", rr.TextDocument(json.dumps(metrics, indent=2)), static=True)
+        finally:                                      # the file is closed and named whatever happens
+            self.rec.flush()
+            self.rec.disconnect()
+            self.rec = None
+            target = self.path.with_name("recording.failed.rrd") if failed else self.path
+            self.part.replace(target)
 
     # -- per frame -----------------------------------------------------------------------
     def frame(self, frame: Frame, estimate: Estimate, joints: np.ndarray, vertices: np.ndarray,
@@ -200,15 +202,16 @@ class RerunSink:
             self.frames_pending = 0
 
     def _log_body(self, f, joints, vertices, truth_joints, landmarks) -> None:
+        # copies (np.array): the rows wait in the batch, the caller's arrays may change meanwhile
         cols, parents = self.cols, self.body.parents
-        cols.add("world/body/estimate", rr.Mesh3D, f, vertex_positions=np.asarray(vertices, np.float32))
+        cols.add("world/body/estimate", rr.Mesh3D, f, vertex_positions=np.array(vertices, np.float32))
         for name, J in (("estimate", joints), ("truth", truth_joints)):
             if J is not None:
                 J = np.asarray(J, np.float32)
                 cols.add(f"world/skeleton/{name}", rr.LineStrips3D, f,
                          strips=np.stack([J[parents[1:]], J[1:]], axis=1))          # (J-1, 2, 3)
         if landmarks is not None:
-            cols.add("world/landmarks/estimate", rr.Points3D, f, positions=np.asarray(landmarks, np.float32))
+            cols.add("world/landmarks/estimate", rr.Points3D, f, positions=np.array(landmarks, np.float32))
 
     def _log_particles(self, f, alpha, particles) -> None:
         shaped = self._shaped(alpha)
