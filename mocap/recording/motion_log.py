@@ -13,7 +13,9 @@ Entities (timeline ``frame``):
     views/<view>/landmarks          reprojected 3D landmarks (keypoint runs), next to the
                                     detections
 
-Diagnostics are read through :func:`mocap.export.motion.decisions`, the one adapter.
+Diagnostics are read through :func:`mocap.export.motion.decisions`, the one adapter. Rows go
+into a :class:`mocap.recording.columns.Columns` batch (sent with ``send_columns``); the shape
+text, logged only when it changes, directly to the recording.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import rerun as rr
 
 from mocap.cameras import project
 from mocap.export.motion import decisions
+from mocap.recording.columns import Columns
 
 
 class MotionLogger:
@@ -30,26 +33,27 @@ class MotionLogger:
         self.dof_names = tuple(dof_names)
         self.rig_small = rig_small
         self.alpha = None
+        self._styled: dict[str, tuple] = {}
 
-    def frame(self, rec: rr.RecordingStream, f: int, estimate) -> None:
+    def frame(self, rec: rr.RecordingStream, cols: Columns, f: int, estimate) -> None:
+        """Frame ``f``'s motion and decisions into ``cols``; ``rec``'s time must be frame ``f``."""
         chi = np.asarray(estimate.chi, np.float64)
         for d, name in enumerate(self.dof_names):
-            rec.log(f"plots/motion/chi/{name}", rr.Scalars(chi[d] if d < 6 else np.rad2deg(chi[d])))
+            cols.scalar(f"plots/motion/chi/{name}", f, chi[d] if d < 6 else np.rad2deg(chi[d]))
         alpha = np.asarray(estimate.alpha, np.float64)
         if self.alpha is None or not np.array_equal(alpha, self.alpha):
             self.alpha = alpha
             rec.log("run/shape", rr.TextDocument("alpha = " + np.array2string(alpha, precision=3)))
         dec = decisions(estimate.diagnostics)
         if dec["apf_called"] is not None:
-            rec.log("plots/decisions/apf_called", rr.Scalars(dec["apf_called"]))
+            cols.scalar("plots/decisions/apf_called", f, dec["apf_called"])
         if dec["limb_errors"] or dec["misaligned"]:
-            rec.log("plots/decisions/misaligned", rr.Scalars(len(dec["misaligned"])))
+            cols.scalar("plots/decisions/misaligned", f, len(dec["misaligned"]))
             for limb, err in dec["limb_errors"].items():
-                rec.log(f"plots/decisions/limb_error/{limb}", rr.Scalars(float(err)))
+                cols.scalar(f"plots/decisions/limb_error/{limb}", f, err)
             for chain, share in dec["unexplained"].items():
-                rec.log(f"plots/decisions/unexplained/{chain}/share", rr.Scalars(float(share)))
-                rec.log(f"plots/decisions/unexplained/{chain}/limit",
-                        rr.Scalars(float(dec["unexplained_limit"][chain])))
+                cols.scalar(f"plots/decisions/unexplained/{chain}/share", f, share)
+                cols.scalar(f"plots/decisions/unexplained/{chain}/limit", f, dec["unexplained_limit"][chain])
             limbs = ", ".join(dec["misaligned"])
             text = (f"frame {f}: APF on {limbs}" if limbs and dec["apf_called"]
                     else f"frame {f}: misaligned {limbs}" if limbs else f"frame {f}: all limbs aligned")
@@ -59,22 +63,25 @@ class MotionLogger:
                     for c, v in dec["unexplained"].items() if v > dec["unexplained_limit"][c]]
             if over:
                 text += " (unexplained pixels: " + ", ".join(over) + ")"
-            rec.log("log/decisions", rr.TextLog(text, level="WARN" if dec["misaligned"] else "INFO"))
+            cols.text("log/decisions", f, text, "WARN" if dec["misaligned"] else "INFO")
         shape = dec["shape_update"]
         if shape:
             frames = ", ".join(str(k) for k in shape["keyframes"])
             kept = "kept" if shape["accepted"] else "not kept"
-            rec.log("log/shape", rr.TextLog(
-                f"frame {f}: shape searched on keyframes {frames}: E_S {shape['energy_before']:.4f} -> "
-                f"{shape['energy_after']:.4f}, {kept}", level="INFO"))
+            cols.text("log/shape", f, f"frame {f}: shape searched on keyframes {frames}: E_S "
+                      f"{shape['energy_before']:.4f} -> {shape['energy_after']:.4f}, {kept}")
         if dec["lost"]:
-            rec.log("log/decisions", rr.TextLog(f"frame {f}: tracker lost", level="ERROR"))
+            cols.text("log/decisions", f, f"frame {f}: tracker lost", "ERROR")
 
-    def landmarks(self, rec: rr.RecordingStream, names, landmarks) -> None:
-        """Reprojected landmarks (L, 3) in each view, at the views' logged resolution."""
+    def landmarks(self, rec: rr.RecordingStream, cols: Columns, f: int, names, landmarks) -> None:
+        """Reprojected landmarks (L, 3) in each view at frame ``f``, at the views' logged
+        resolution (their style and labels static, logged once)."""
         if self.rig_small is None or landmarks is None:
             return
-        px = project(self.rig_small, np.asarray(landmarks, np.float64))           # (C, L, 2)
+        px = project(self.rig_small, np.asarray(landmarks, np.float64)).astype(np.float32)   # (C, L, 2)
         for c, view in enumerate(self.rig_small.names):
-            rec.log(f"views/{view}/landmarks", rr.Points2D(px[c], radii=1.5, colors=[60, 220, 255],
-                                                            labels=list(names) if names else None))
+            if self._styled.get(view) != tuple(names or ()):
+                self._styled[view] = tuple(names or ())
+                rec.log(f"views/{view}/landmarks", rr.Points2D.from_fields(
+                    radii=1.5, colors=[60, 220, 255], labels=list(names) if names else None), static=True)
+            cols.add(f"views/{view}/landmarks", rr.Points2D, f, positions=px[c])

@@ -1,26 +1,39 @@
 """A Rerun recording of a tracking run (``recording.rrd``), with a blueprint.
 
-Entity tree (timeline ``frame``; per-layer annealing values also on ``anneal_step`` =
-frame x layers + layer):
+What each ``recording.level`` holds (:class:`mocap.recording.factory.RecordingSettings`;
+timeline ``frame``, per-layer annealing values on ``anneal_step`` = frame x layers + layer):
 
-    world                          3D, z up
-      cams/<view>                  pinhole + pose (static)
-      body/estimate                estimated mesh (topology static, positions per frame)
-      skeleton/estimate|truth      bones as line strips
-      particles/first|last         joints of every particle in the first / last layer
-      landmarks/estimate           3D landmarks (marker runs)
-    views/<view>/image             input image, downscaled (when the data has images)
-    views/<view>/silhouette_diff   Fig. 8 of Zhang et al.: green = observed only,
-                                   purple = estimate only, grey = both
-    views/<view>/detections        2D detections (marker runs)
-    views/<view>/landmarks         reprojected 3D landmarks (marker runs)
-    plots/energy/<term>, plots/error/mpjpe_mm, plots/timing/<stage>, plots/layers/<value>
-    plots/motion/chi/<dof>, plots/decisions/..., log/decisions, run/shape
-                                   the motion and the tracker's decisions (motion_log.py)
-    run/config, run/metadata, run/metrics   text documents
+summary
+    run/config, run/metadata, run/metrics      text documents (static)
+    world/cams/<view>                          pinhole + pose (static)
+    plots/energy/<term>, plots/error/mpjpe_mm, plots/timing/<stage>, plots/misalignment/...
+                                               every frame's scalars
+    plots/motion/chi/<dof>, plots/decisions/..., log/decisions, log/shape, run/shape
+                                               the motion and the tracker's decisions (motion_log.py)
+    world/body/estimate, world/skeleton/estimate|truth, world/landmarks/estimate
+                                               the last tracked frame only (the final body)
+standard (default): everything of summary, and on every ``every``-th frame
+    world/body/estimate                        estimated mesh: triangles and colours once (static),
+                                               then vertex positions only
+    world/skeleton/estimate|truth              bones as line strips
+    world/landmarks/estimate                   3D landmarks (marker / keypoint runs)
+    views/<view>/silhouette_diff               Fig. 8 of Zhang et al. at ``scale`` (a segmentation
+                                               image: green = observed only, purple = estimate
+                                               only, grey = both)
+    views/<view>/image                         input image (when the data has images), downscaled to
+                                               ``scale`` and JPEG-encoded once
+    views/<view>/detections|landmarks          2D detections, reprojected 3D landmarks
+    plots/layers/<value>                       every annealing layer's scalars (``anneal_step``)
+full: everything of standard, and
+    world/particles/layer_<m>                  joints of every particle of every layer
+                                               (``particles=true``: world/particles/first|last)
+    the 2D views and images at full size (``scale`` 1)
 
-The file is written to ``<path>.part`` and renamed when the run finishes; a failed run
-leaves ``recording.failed.rrd`` for inspection and never a file that looks complete.
+Per-frame scalars, texts, points, strips and mesh positions are gathered and sent in batches
+(``send_columns``, :mod:`mocap.recording.columns`) every :data:`BATCH_FRAMES` frames and at the
+end; style (colours, radii, labels) is logged once, static. The file is written to
+``<path>.part`` and renamed when the run finishes; a failed run leaves ``recording.failed.rrd``
+for inspection and never a file that looks complete.
 """
 
 from __future__ import annotations
@@ -37,6 +50,8 @@ from mocap.body.model import BodyModel
 from mocap.cameras import project
 from mocap.data.sequence import Sequence
 from mocap.energy.silhouette import downscale_masks
+from mocap.recording.columns import Columns
+from mocap.recording.factory import RecordingSettings
 from mocap.recording.motion_log import MotionLogger
 from mocap.recording.sink import RunInfo
 from mocap.render import get_rasterizer
@@ -45,14 +60,20 @@ from mocap.trackers.diagnostics import flatten_scalars
 
 BODY_RGB = (235, 120, 40)     # the estimated mesh's base colour (orange), shaded per part
 DIFF_COLORS = {"observed_only": (40, 200, 60), "estimate_only": (190, 40, 200), "both": (200, 200, 200)}
+#: class ids of the silhouette difference (observed + 2 x estimate)
+DIFF_CLASSES = {1: "observed_only", 2: "estimate_only", 3: "both"}
+BATCH_FRAMES = 100            # frames gathered before a send_columns batch (a mesh: ~60 kB per frame) ...
+BATCH_BYTES = 32_000_000      # ... or fewer when they hold more bytes (full-size images)
+JPEG_QUALITY = 80
 
 
 def blueprint(view_names: list[str]) -> rrb.Blueprint:
+    """The layout: the 3D view over the 2D views (none: the 3D view alone), plots on the right."""
     views = [rrb.Spatial2DView(origin=f"views/{n}", name=n) for n in view_names]
+    scene = rrb.Spatial3DView(origin="world", name="3D")
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Vertical(rrb.Spatial3DView(origin="world", name="3D"),
-                         rrb.Grid(*views, name="views"), row_shares=[3, 2]),
+            rrb.Vertical(scene, rrb.Grid(*views, name="views"), row_shares=[3, 2]) if views else scene,
             rrb.Vertical(
                 rrb.TimeSeriesView(origin="plots/error", name="joint error (mm)"),
                 rrb.TimeSeriesView(origin="plots/energy", name="energy terms"),
@@ -79,31 +100,32 @@ def body_colors(body: BodyModel) -> np.ndarray:
 
 
 class RerunSink:
-    """Writes a run to ``path``. every: record every k-th frame (plots: every frame);
-    particles: log particle clouds; images: log input images; scale: resolution of the 2D
-    views relative to the camera images."""
+    """Writes a run to ``path`` with the given :class:`RecordingSettings` (level, every,
+    particles, images, scale; what each level holds: the module docstring)."""
 
-    def __init__(self, path: str | Path, every: int = 1, particles: bool = True,
-                 images: bool = True, scale: float = 0.25):
-        if every < 1:
-            raise ValueError(f"recording.every must be >= 1, got {every}")
+    def __init__(self, path: str | Path, settings: RecordingSettings | None = None):
+        self.settings = settings if settings is not None else RecordingSettings()
         self.path = Path(path)
         self.part = self.path.with_name(self.path.name + ".part")
-        self.every, self.particles, self.images, self.scale = every, particles, images, scale
         self.rec: rr.RecordingStream | None = None
 
     # -- lifecycle -----------------------------------------------------------------------
     def start(self, info: RunInfo, body: BodyModel, seq: Sequence) -> None:
+        s = self.settings
         self.body, self.seq = body, seq
-        self.rig_small = seq.rig.scaled(self.scale)
+        self.rig_small = seq.rig.scaled(s.scale)
         w, h = (int(v) for v in self.rig_small.sizes[0])
         self.size = (h, w)
-        self.rasterizer = get_rasterizer(body.faces, body.num_vertices)
+        self.rasterizer = get_rasterizer(body.faces, body.num_vertices) if s.views else None
         self.shaped = None
-        self.motion_log = MotionLogger(body.dof_names, self.rig_small)
+        self.cols = Columns()
+        self.frames_pending = 0
+        self.styled: set = set()          # entities whose static style / format is logged
+        self.last = None                  # the last frame's body (summary: logged at the end)
+        self.motion_log = MotionLogger(body.dof_names, self.rig_small if s.views else None)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         rec = rr.RecordingStream("mocap", recording_id=info.metadata.get("run_id"))
-        rec.save(self.part, default_blueprint=blueprint(list(seq.rig.names)))
+        rec.save(self.part, default_blueprint=blueprint(list(seq.rig.names) if s.views else []))
         self.rec = rec
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         for cam in seq.rig:
@@ -116,6 +138,17 @@ class RerunSink:
         # component in Rerun, so static vertex positions would hide the per-frame ones.
         rec.log("world/body/estimate", rr.Mesh3D.from_fields(
             triangle_indices=body.faces, vertex_colors=body_colors(body)), static=True)
+        for name, color in (("estimate", (255, 200, 0)), ("truth", (60, 220, 255))):
+            rec.log(f"world/skeleton/{name}", rr.LineStrips3D.from_fields(colors=[color], radii=0.01),
+                    static=True)
+        rec.log("world/landmarks/estimate", rr.Points3D.from_fields(radii=0.02, colors=[255, 60, 60]),
+                static=True)
+        if s.views:
+            rec.log("views", rr.AnnotationContext([(0, "none", (0, 0, 0, 0))] + [
+                (k, name, DIFF_COLORS[name]) for k, name in DIFF_CLASSES.items()]), static=True)
+            for name in seq.rig.names:
+                rec.log(f"views/{name}/detections", rr.Points2D.from_fields(radii=1.5, colors=[255, 0, 255]),
+                        static=True)
         rec.log("run/config", rr.TextDocument(f"```yaml\n{info.config_yaml}\n```",
                                               media_type=rr.MediaType.MARKDOWN), static=True)
         rec.log("run/metadata", rr.TextDocument(json.dumps(info.metadata, indent=2)), static=True)
@@ -123,55 +156,75 @@ class RerunSink:
     def finish(self, metrics: dict | None, failed: bool = False) -> None:
         if self.rec is None:
             return
-        if metrics is not None:
-            self.rec.log("run/metrics", rr.TextDocument(json.dumps(metrics, indent=2)), static=True)
-        self.rec.flush()
-        self.rec.disconnect()
-        self.rec = None
-        target = self.path.with_name("recording.failed.rrd") if failed else self.path
-        self.part.replace(target)
+        try:
+            if self.last is not None and not self.settings.per_frame_body:
+                self._log_body(*self.last)            # summary: the final body
+            self.cols.send(self.rec)                  # the last batch
+            if metrics is not None:
+                self.rec.log("run/metrics", rr.TextDocument(json.dumps(metrics, indent=2)), static=True)
+        finally:                                      # the file is closed and named whatever happens
+            self.rec.flush()
+            self.rec.disconnect()
+            self.rec = None
+            target = self.path.with_name("recording.failed.rrd") if failed else self.path
+            self.part.replace(target)
 
     # -- per frame -----------------------------------------------------------------------
     def frame(self, frame: Frame, estimate: Estimate, joints: np.ndarray, vertices: np.ndarray,
               truth_joints: np.ndarray | None, error_mm: float | None, seconds: float) -> None:
-        rec, f = self.rec, frame.index
+        s, rec, cols, f = self.settings, self.rec, self.cols, frame.index
         rec.set_time("frame", sequence=f)
         d = estimate.diagnostics
         for key, value in d.scalars().items():      # energy/*, timing/*, misalignment/*, ...
-            rec.log(f"plots/{key}", rr.Scalars(value))
+            cols.scalar(f"plots/{key}", f, value)
         if error_mm is not None:
-            rec.log("plots/error/mpjpe_mm", rr.Scalars(error_mm))
-        rec.log("plots/timing/step", rr.Scalars(seconds))
-        layers = d.anneal.layers if d.anneal is not None else ()
-        if layers:
-            rec.reset_time()            # layers on their own timeline, not stacked on the frame
-        for m, layer in enumerate(layers):
-            rec.set_time("anneal_step", sequence=f * len(layers) + m)
+            cols.scalar("plots/error/mpjpe_mm", f, error_mm)
+        cols.scalar("plots/timing/step", f, seconds)
+        layers = d.anneal.layers if (d.anneal is not None and s.layers) else ()
+        for m, layer in enumerate(layers):          # on their own timeline, not stacked on the frame
             for key, value in flatten_scalars("", layer).items():
-                rec.log(f"plots/layers/{key}", rr.Scalars(value))
-        if layers:
-            rec.reset_time()
-            rec.set_time("frame", sequence=f)
-        self.motion_log.frame(rec, f, estimate)
-        if f % self.every:
-            return
-        rec.log("world/body/estimate", rr.Mesh3D.from_fields(vertex_positions=vertices))
-        parents = self.body.parents
-        for name, J, color in (("estimate", joints, (255, 200, 0)), ("truth", truth_joints, (60, 220, 255))):
+                cols.scalar(f"plots/layers/{key}", f * len(layers) + m, value, timeline="anneal_step")
+        self.motion_log.frame(rec, cols, f, estimate)
+        landmarks = d.landmarks.points if d.landmarks is not None else None
+        self.last = (f, joints, vertices, truth_joints, landmarks)
+        if f % s.every == 0:
+            if s.per_frame_body:
+                self._log_body(f, joints, vertices, truth_joints, landmarks)
+            if s.views and landmarks is not None:
+                self.motion_log.landmarks(rec, cols, f, d.landmarks.names, landmarks)
+            if s.particles and d.particles:
+                self._log_particles(f, estimate.alpha, d.particles)
+            if s.views:
+                self._log_views(frame, vertices)
+        self.frames_pending += 1
+        if self.frames_pending >= BATCH_FRAMES or cols.nbytes > BATCH_BYTES:
+            cols.send(rec)
+            self.frames_pending = 0
+
+    def _log_body(self, f, joints, vertices, truth_joints, landmarks) -> None:
+        # copies (np.array): the rows wait in the batch, the caller's arrays may change meanwhile
+        cols, parents = self.cols, self.body.parents
+        cols.add("world/body/estimate", rr.Mesh3D, f, vertex_positions=np.array(vertices, np.float32))
+        for name, J in (("estimate", joints), ("truth", truth_joints)):
             if J is not None:
-                strips = [np.stack([J[parents[j]], J[j]]) for j in range(1, len(parents))]
-                rec.log(f"world/skeleton/{name}", rr.LineStrips3D(strips, colors=[color], radii=0.01))
-        if d.landmarks is not None:
-            rec.log("world/landmarks/estimate", rr.Points3D(d.landmarks.points, radii=0.02,
-                                                            colors=[255, 60, 60]))
-            self.motion_log.landmarks(rec, d.landmarks.names, d.landmarks.points)
-        particles = d.particles
-        if self.particles and particles:
-            shaped = self._shaped(estimate.alpha)
-            for name, x in (("first", particles[0]), ("last", particles[-1])):
-                pts = shaped.joints(x).reshape(-1, 3)
-                rec.log(f"world/particles/{name}", rr.Points3D(pts, radii=0.006))
-        self._log_views(frame, vertices)
+                J = np.asarray(J, np.float32)
+                cols.add(f"world/skeleton/{name}", rr.LineStrips3D, f,
+                         strips=np.stack([J[parents[1:]], J[1:]], axis=1))          # (J-1, 2, 3)
+        if landmarks is not None:
+            cols.add("world/landmarks/estimate", rr.Points3D, f, positions=np.array(landmarks, np.float32))
+
+    def _log_particles(self, f, alpha, particles) -> None:
+        shaped = self._shaped(alpha)
+        if self.settings.particles == "all":
+            named = [(f"layer_{m:02d}", x) for m, x in enumerate(particles)]
+        else:
+            named = [("first", particles[0]), ("last", particles[-1])]
+        for name, x in named:
+            if name not in self.styled:
+                self.styled.add(name)
+                self.rec.log(f"world/particles/{name}", rr.Points3D.from_fields(radii=0.006), static=True)
+            pts = shaped.joints(x).reshape(-1, 3).astype(np.float32)
+            self.cols.add(f"world/particles/{name}", rr.Points3D, f, positions=pts)
 
     def _shaped(self, alpha):
         if self.shaped is None or not np.array_equal(self.shaped.alpha, alpha):
@@ -179,26 +232,34 @@ class RerunSink:
         return self.shaped
 
     def _log_views(self, frame: Frame, vertices: np.ndarray) -> None:
-        rec = self.rec
+        rec, f = self.rec, frame.index
         h, w = self.size
         names = self.seq.rig.names
         if frame.masks is not None:
             px, depth = project(self.rig_small, vertices, return_depth=True)
             est = self.rasterizer(px, h, w, depth, near=0.05)
-            obs = downscale_masks(frame.masks, self.scale)
+            obs = downscale_masks(frame.masks, self.settings.scale)
+            diff = obs.astype(np.uint8) + 2 * np.asarray(est, np.uint8)        # DIFF_CLASSES
             for c, name in enumerate(names):
-                img = np.zeros((h, w, 3), np.uint8)
-                img[obs[c] & ~est[c]] = DIFF_COLORS["observed_only"]
-                img[est[c] & ~obs[c]] = DIFF_COLORS["estimate_only"]
-                img[obs[c] & est[c]] = DIFF_COLORS["both"]
-                rec.log(f"views/{name}/silhouette_diff", rr.Image(img))
-        if self.images and frame.images is not None:
+                entity = f"views/{name}/silhouette_diff"
+                if entity not in self.styled:      # the image format once, the pixels per frame
+                    self.styled.add(entity)
+                    rec.log(entity, rr.SegmentationImage.from_fields(format=rr.components.ImageFormat(
+                        width=w, height=h, channel_datatype="U8")), static=True)
+                self.cols.add(entity, rr.SegmentationImage, f, buffer=diff[c].tobytes())
+        if self.settings.images and frame.images is not None:
             for c, name in enumerate(names):
-                small = cv2.resize(frame.images[c], (w, h), interpolation=cv2.INTER_AREA)
-                rec.log(f"views/{name}/image", rr.Image(small).compress(jpeg_quality=80))
+                img = frame.images[c]
+                if img.shape[:2] != (h, w):
+                    img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+                _, jpeg = cv2.imencode(".jpg", np.ascontiguousarray(img[..., ::-1]),     # RGB -> BGR
+                                       [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+                self.cols.add(f"views/{name}/image", rr.EncodedImage, f, blob=jpeg.tobytes(),
+                              media_type="image/jpeg")
         if frame.detections is not None and len(frame.detections):
             det = frame.detections
             for c, name in enumerate(names):
                 sel = det.view == c
                 xy = (det.xy[sel] + 0.5) * (w / self.seq.rig.sizes[c][0]) - 0.5
-                rec.log(f"views/{name}/detections", rr.Points2D(xy, radii=1.5, colors=[255, 0, 255]))
+                self.cols.add(f"views/{name}/detections", rr.Points2D, f,
+                              positions=np.asarray(xy, np.float32))

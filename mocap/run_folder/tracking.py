@@ -13,7 +13,8 @@ metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents t
                                      >= 1, at most the data's; None or "all": all), thread budget
     init.mode                        gt_noise (ground truth + noise) | tracker (self-initialised)
     init.noise_deg, init.noise_translation, init.cache
-    recording.*                      keyword arguments of :func:`mocap.recording.factory.make_sink`
+    recording.*                      enabled, level (summary | standard | full), every, particles,
+                                     images, scale (:func:`mocap.recording.factory.recording_settings`)
     motion.vertices                  keep the posed mesh per frame in motion.npz
     skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.eval.resume`)
 
@@ -53,7 +54,7 @@ from mocap.eval.resume import (
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
-from mocap.recording.factory import make_sink
+from mocap.recording.factory import make_sink, recording_settings
 from mocap.recording.sink import RunInfo
 from mocap.run_folder.manifest import manifest_problem, write_manifest
 from mocap.run_folder.read import write_json
@@ -148,8 +149,8 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     mode = init_cfg.get("mode", "gt_noise")
     if mode not in INIT_MODES:
         raise ValueError(f"init.mode must be one of {INIT_MODES}, got {mode!r}")
-    rec_cfg = dict(config.get("recording") or {})
-    recording = bool(rec_cfg.get("enabled", True))
+    rec_cfg = recording_settings(config.get("recording"))     # checked before any work
+    recording = rec_cfg.enabled
     seed = int(config.get("seed", 0))
     threads = resolve_threads(config.get("threads", "auto"), parallel_jobs)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -181,7 +182,7 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     try:
         prepared = _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence,
                             make_tracker, wrap)
-        sink = make_sink(out_dir, **rec_cfg)     # its settings checked; nothing written yet
+        sink = make_sink(out_dir, rec_cfg)     # nothing written yet
     except BaseException:
         if state in ("complete", "changed"):
             restore_stored_config(out_dir)      # refused before any work: the old run stays as it was
@@ -201,7 +202,7 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
     if (seq.gt is None or seq.gt.chi is None) and mode == "gt_noise":
         raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
     rng = np.random.default_rng(seed)
-    keep_particles = bool(rec_cfg.get("enabled", True) and rec_cfg.get("particles", True))
+    keep_particles = rec_cfg.keep_particles
     tracker = make_tracker(body=body, rig=seq.rig, rng=np.random.default_rng([seed, 1]),
                            keep_particles=keep_particles)
     if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work

@@ -30,7 +30,7 @@ def test_recording_holds_the_run_and_matches_metrics(run_dir):
     m = json.loads((run_dir / "metrics.json").read_text())
     info = read_recording(run_dir / "recording.rrd")
     for entity in ("/world/body/estimate", "/world/skeleton/estimate", "/world/skeleton/truth",
-                   "/world/cams/cam_00", "/views/cam_00/silhouette_diff", "/world/particles/last",
+                   "/world/cams/cam_00", "/views/cam_00/silhouette_diff",
                    "/plots/energy/silhouette", "/plots/error/mpjpe_mm", "/plots/layers/beta",
                    "/run/config", "/run/metadata", "/run/metrics"):
         assert entity in info["entities"], entity

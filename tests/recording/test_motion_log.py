@@ -4,6 +4,7 @@ layers on their own timeline only."""
 import numpy as np
 import rerun as rr
 
+from mocap.recording.columns import Columns
 from mocap.recording.motion_log import MotionLogger
 from mocap.recording.reader import read_recording
 from mocap.trackers.base import Estimate
@@ -14,6 +15,7 @@ def test_decisions_and_motion_are_logged(tmp_path, body):
     rec = rr.RecordingStream("t")
     rec.save(path)
     log = MotionLogger(body.dof_names)
+    cols = Columns()
     chi = np.zeros(body.num_dofs)
     chi[7] = 0.5
     diags = [{"apf_called": 0, "misaligned_limbs": [], "limb_errors": {"l_knee": 0.1},
@@ -24,7 +26,8 @@ def test_decisions_and_motion_are_logged(tmp_path, body):
                                "shift_m": (0.0, 0.0, 0.01), "keyframes": (0, 1)}}]
     for f, d in enumerate(diags):
         rec.set_time("frame", sequence=f)
-        log.frame(rec, f, Estimate(chi * (f + 1), np.zeros(body.num_shape), d))
+        log.frame(rec, cols, f, Estimate(chi * (f + 1), np.zeros(body.num_shape), d))
+    cols.send(rec)
     rec.flush()
     rec.disconnect()
     info = read_recording(path)
@@ -69,7 +72,10 @@ def test_a_patrol_search_is_named_in_the_decision_log(tmp_path, body):
     d = {"apf_called": 1, "misaligned_limbs": [], "limb_errors": {"l_elbow": 0.05}, "patrol": True,
          "apf_free_dofs": ["l_shoulder_flex", "l_elbow_flex"]}
     rec.set_time("frame", sequence=4)
-    MotionLogger(body.dof_names).frame(rec, 4, Estimate(np.zeros(body.num_dofs), np.zeros(body.num_shape), d))
+    cols = Columns()
+    est = Estimate(np.zeros(body.num_dofs), np.zeros(body.num_shape), d)
+    MotionLogger(body.dof_names).frame(rec, cols, 4, est)
+    cols.send(rec)
     rec.flush()
     rec.disconnect()
     texts = [t[0] for chunk in rr.chunk.RrdReader(str(path)).stream() if chunk.entity_path == "/log/decisions"

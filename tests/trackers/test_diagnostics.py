@@ -7,6 +7,7 @@ import pytest
 
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
+from mocap.recording.factory import RecordingSettings
 from mocap.recording.reader import read_recording
 from mocap.recording.rerun_sink import RerunSink
 from mocap.recording.sink import RunInfo
@@ -53,7 +54,7 @@ def test_the_old_dictionary_view_reads_the_typed_fields():
 def test_misaligned_limbs_and_layers_reach_the_recording(body, tmp_path):
     rig = ring_rig(2, 3.5, 1.5, 64, 48, fov_deg=45, look_at=(0, 0, 0.9))
     seq = make_synthetic(body, rig, motion="walk", frames=2, fps=25, seed=0)
-    sink = RerunSink(tmp_path / "recording.rrd", particles=False)
+    sink = RerunSink(tmp_path / "recording.rrd", RecordingSettings(particles=False))
     sink.start(RunInfo("x: 1", {"run_id": "test"}), body, seq)
     out = body.shaped(seq.gt.alpha).pose(seq.gt.chi[1])
     est = Estimate(seq.gt.chi[1], seq.gt.alpha, StepDiagnostics(
