@@ -93,6 +93,14 @@ def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.
 
     sequence = Path(sequence)
     meta_path = sequence / "sequence.json"
+    if not sequence.is_dir():
+        raise FileNotFoundError(f"sequence folder not found: {sequence}")
+    if not meta_path.is_file():
+        pose2sim = any(sequence.glob("*.toml")) or (sequence / "pose").is_dir()
+        raise FileNotFoundError(
+            f"{sequence} has no sequence.json: "
+            + (f"it is a Pose2Sim folder (calibration, pose/); make a sequence folder with `mocap convert "
+               f"{sequence} OUT` and add the ground truth to OUT" if pose2sim else "not a sequence folder"))
     info = json.loads(meta_path.read_text())
     if int(info["frames"]) != len(joints):
         raise ValueError(f"{len(joints)} frames of joints, but sequence {sequence} has {info['frames']}")

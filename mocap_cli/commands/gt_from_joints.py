@@ -14,11 +14,12 @@ from pathlib import Path
 
 from mocap.data.named_joints import add_ground_truth, read_named_joints
 from mocap.eval.by_name import SKELETONS
+from mocap_cli.errors import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap gt-from-joints", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap gt-from-joints", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("joints_dir", type=Path)
     p.add_argument("sequence_dir", type=Path)
     p.add_argument("--skeleton", default="", choices=["", *SKELETONS])
