@@ -7,8 +7,8 @@ one dict per track: the one estimate of a single-person tracker, or one per pers
 multi-person tracker. Every track gets at most one ground-truth person and every person at
 most one track: the assignment minimising the sum of mean joint errors (the Hungarian method
 on the (tracks x people) matrix of each pair's mean joint error over the frames both exist,
-mm); pairs further apart than ``gate_mm`` stay unassigned. The result does not depend on the
-order of the people in the file (nor of the tracks).
+mm); a pair never within ``gate_mm`` of each other in any frame stays unassigned. The result
+does not depend on the order of the people in the file (nor of the tracks).
 
 Per person (under ``people``, by person name): ``track`` (the assigned track's index, None:
 not tracked), ``frames`` (frames with ground truth), ``tracked_frames`` (frames where the
@@ -81,7 +81,8 @@ def score_people(tracks: Sequence[Mapping[str, np.ndarray]], gt: GroundTruth,
     with np.errstate(invalid="ignore"):
         cost = np.where(ok, err, 0.0).sum(-1) / ok.sum(-1)                             # (T, F, P): NaN none
         total = np.where(np.isfinite(cost), cost, 0.0).sum(1) / np.isfinite(cost).sum(1)  # (T, P)
-    assigned = dict((p, t) for t, p in _assign(total, gate_mm))
+    near = (np.where(np.isfinite(cost), cost, np.inf) <= gate_mm).any(axis=1)           # (T, P)
+    assigned = {p: t for t, p in _assign(np.where(near, total, np.nan), np.inf)}
     # frame by frame: who follows whom
     matched = [[None] * F for _ in range(P)]
     followed: list[list[int | None]] = [[None] * F for _ in tracks]
