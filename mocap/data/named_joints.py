@@ -85,12 +85,9 @@ def read_named_joints(folder: str | Path,
     return tuple(names), joints, valid
 
 
-def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.ndarray,
-                     skeleton: str = "", overwrite: bool = False) -> Path:
-    """Write joints-by-name ground truth (gt.npz) into a sequence folder and mark it in
-    sequence.json. The frame count must match the sequence's."""
-    from mocap.data.sequence_io import write_ground_truth
-
+def sequence_info(sequence: str | Path) -> dict:
+    """sequence.json of a sequence folder; a missing one is refused naming what the folder is
+    (a Pose2Sim folder: ``mocap convert`` makes a sequence folder of it)."""
     sequence = Path(sequence)
     meta_path = sequence / "sequence.json"
     if not sequence.is_dir():
@@ -101,7 +98,21 @@ def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.
             f"{sequence} has no sequence.json: "
             + (f"it is a Pose2Sim folder (calibration, pose/); make a sequence folder with `mocap convert "
                f"{sequence} OUT` and add the ground truth to OUT" if pose2sim else "not a sequence folder"))
-    info = json.loads(meta_path.read_text())
+    try:
+        return json.loads(meta_path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{meta_path}: invalid JSON ({exc})") from None
+
+
+def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.ndarray,
+                     skeleton: str = "", overwrite: bool = False) -> Path:
+    """Write joints-by-name ground truth (gt.npz) into a sequence folder and mark it in
+    sequence.json. The frame count must match the sequence's."""
+    from mocap.data.sequence_io import write_ground_truth
+
+    sequence = Path(sequence)
+    info = sequence_info(sequence)
+    meta_path = sequence / "sequence.json"
     if int(info["frames"]) != len(joints):
         raise ValueError(f"{len(joints)} frames of joints, but sequence {sequence} has {info['frames']}")
     if (sequence / "gt.npz").exists() and not overwrite:

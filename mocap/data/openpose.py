@@ -421,7 +421,7 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
     calib = root / calibration if calibration is not None else _find_calibration(root)
     rig = load_calibration(calib)
     kp_root = root / (keypoints or "pose")
-    people = read_keypoint_folders(rig, kp_root, None if layout == "auto" else len(LAYOUTS[layout]))
+    people = read_keypoint_folders(rig, kp_root)      # K from the files; a named layout is checked below
     layout = resolve_layout(people, layout, kp_root)
     all_frames = sorted(set().union(*(p.keys() for p in people)))
     first = all_frames[0]
