@@ -160,3 +160,29 @@ def test_old_detections_without_person_still_load(two_people, tmp_path):
     d["rows"] = [r[:6] for r in d["rows"]]
     (out / "detections.json").write_text(json.dumps(d))
     assert load_sequence(out).detections.person is None
+
+
+def test_the_video_recording_takes_its_tracked_frames_of_the_ground_truth(tmp_path):
+    """data=pose2sim_demo_video with a gt.npz (the demo's keypoints, 100 frames; a ground truth
+    whose joint values are their frame numbers): frames start:stop:step are the ones kept."""
+    from mocap.data.video_sequence import load_video_sequence
+    from mocap.eval.by_name import SKELETONS
+    from tests.conftest import SHARED
+
+    demo = SHARED / "data" / "pose2sim-demo"
+    if not (demo / "videos").is_dir():
+        pytest.skip("the Pose2Sim demo is not in ../shared/data")
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    shutil.copy(demo / "Calib.toml", rec)
+    for sub in ("pose", "videos"):
+        (rec / sub).symlink_to(demo / sub)
+    names = list(SKELETONS["humaneva15"])
+    joints = np.arange(100.0)[:, None, None] * np.ones((1, len(names), 3))
+    np.savez(rec / "gt.npz", joints=joints, joint_names=np.array(names), skeleton=np.array("humaneva15"))
+    seq = load_video_sequence(rec, stop=10, step=2, scale=0.25, layout="auto")
+    assert seq.num_frames == 5 and list(seq.gt.joints[:, 0, 0]) == [0, 2, 4, 6, 8]
+    assert seq.meta["layout"] == "BODY_25B" and seq.meta["gt"] == str(rec / "gt.npz")
+    np.savez(rec / "gt.npz", joints=joints[:5], joint_names=np.array(names), skeleton=np.array("humaneva15"))
+    with pytest.raises(ValueError, match="field 'joints' has 5 frames, the recording 100"):
+        load_video_sequence(rec, stop=10, step=2, scale=0.25, layout="auto")
