@@ -24,6 +24,7 @@ frame (a single-person tracker moving to a bystander).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -107,7 +108,8 @@ def score_people(tracks: Sequence[Mapping[str, np.ndarray]], gt: GroundTruth,
         gt_p = people[p].joints[start:start + F]
         valid_p = np.zeros(gt_p.shape[:2], bool)
         valid_p[:, idx] = full_valid
-        with np.errstate(invalid="ignore"), _quiet():
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)     # frames without the track: empty means
             s = score_by_name(tracks[t], names, gt_p, valid_p, skeleton, only, required)
         entry.update({k: v for k, v in s.items() if k not in ("scored", "unscored", "per_frame_mm")})
         if "pcp" in s:
@@ -130,18 +132,3 @@ def score_people(tracks: Sequence[Mapping[str, np.ndarray]], gt: GroundTruth,
         if pcps:
             out["pcp"] = float(np.mean(pcps))
     return out
-
-
-class _quiet:
-    """Silence numpy's "mean of empty slice" for frames where a track or person is absent."""
-
-    def __enter__(self):
-        import warnings
-
-        self._w = warnings.catch_warnings()
-        self._w.__enter__()
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return self
-
-    def __exit__(self, *exc):
-        return self._w.__exit__(*exc)
