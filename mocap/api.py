@@ -39,17 +39,18 @@ def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None
     init: a pose (D,) (then ``alpha`` (K,) is the shape, default the mean); ``"gt_noise"``:
     ground truth plus noise (``noise_deg`` on angles, ``noise_translation`` m); ``"tracker"``:
     the tracker initialises itself from frame 0; ``"auto"``: gt_noise when the sequence has
-    ground truth, else tracker. The randomness is that of ``mocap track`` with the same seed.
+    a ground-truth pose, else tracker. The randomness is that of ``mocap track`` with the same seed.
     """
     body = body if body is not None else load_body("paper22")
     rng = np.random.default_rng(seed)
     t = make_tracker(tracker, body=body, rig=sequence.rig, rng=np.random.default_rng([seed, 1]), **settings)
     if isinstance(init, str) and init == "auto":
-        init = "gt_noise" if sequence.gt is not None else "tracker"
+        init = "gt_noise" if sequence.gt is not None and sequence.gt.chi is not None else "tracker"
     if isinstance(init, str):
         if init == "gt_noise":
-            if sequence.gt is None:
-                raise ValueError(f"sequence {sequence.name!r} has no ground truth: use init='tracker'")
+            if sequence.gt is None or sequence.gt.chi is None:
+                raise ValueError(f"sequence {sequence.name!r} has no ground-truth pose chi: "
+                                 "use init='tracker'")
             chi = noisy_initial_pose(body, sequence.gt.chi[0], rng, noise_deg, noise_translation)
             alpha = sequence.gt.alpha
         elif init == "tracker":

@@ -3,12 +3,27 @@ and which are the program's (a traceback)."""
 
 from __future__ import annotations
 
+import argparse
+
 from hydra.errors import HydraException, InstantiationException, MissingConfigException
 from omegaconf.errors import OmegaConfBaseException
 
 #: raised by validation before work starts: a setting's value, a missing or existing file, a key
 USER_ERRORS = (ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, KeyError,
                PermissionError, OmegaConfBaseException)
+
+
+class UsageError(ValueError):
+    """A bad argument of an argparse command (an unknown option, a missing or invalid value)."""
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse for ``mocap`` commands: a bad argument raises :class:`UsageError` (one line,
+    ``mocap <command>: error: ...``, through :func:`mocap_cli.main.main`) instead of printing the
+    usage and exiting; ``--help`` still prints the help."""
+
+    def error(self, message: str):
+        raise UsageError(f"{message} ({self.prog} --help)")
 
 
 def _one_line(text: str) -> str:
@@ -30,6 +45,10 @@ def _binding_error(exc: BaseException) -> bool:
 
 
 def _is_user_error(exc: BaseException) -> bool:
+    from mocap.run_folder.tracking import DURING_WORK_NOTE
+
+    if DURING_WORK_NOTE in getattr(exc, "__notes__", ()):
+        return False            # raised after the checks, while tracking: a programming error
     if isinstance(exc, InstantiationException):
         cause = exc.__cause__
         return cause is not None and (_is_user_error(cause) or (

@@ -85,6 +85,25 @@ def read_named_joints(folder: str | Path,
     return tuple(names), joints, valid
 
 
+def sequence_info(sequence: str | Path) -> dict:
+    """sequence.json of a sequence folder; a missing one is refused naming what the folder is
+    (a Pose2Sim folder: ``mocap convert`` makes a sequence folder of it)."""
+    sequence = Path(sequence)
+    meta_path = sequence / "sequence.json"
+    if not sequence.is_dir():
+        raise FileNotFoundError(f"sequence folder not found: {sequence}")
+    if not meta_path.is_file():
+        pose2sim = any(sequence.glob("*.toml")) or (sequence / "pose").is_dir()
+        raise FileNotFoundError(
+            f"{sequence} has no sequence.json: "
+            + (f"it is a Pose2Sim folder (calibration, pose/); make a sequence folder with `mocap convert "
+               f"{sequence} OUT` and add the ground truth to OUT" if pose2sim else "not a sequence folder"))
+    try:
+        return json.loads(meta_path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{meta_path}: invalid JSON ({exc})") from None
+
+
 def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.ndarray,
                      skeleton: str = "", overwrite: bool = False) -> Path:
     """Write joints-by-name ground truth (gt.npz) into a sequence folder and mark it in
@@ -92,8 +111,8 @@ def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.
     from mocap.data.sequence_io import write_ground_truth
 
     sequence = Path(sequence)
+    info = sequence_info(sequence)
     meta_path = sequence / "sequence.json"
-    info = json.loads(meta_path.read_text())
     if int(info["frames"]) != len(joints):
         raise ValueError(f"{len(joints)} frames of joints, but sequence {sequence} has {info['frames']}")
     if (sequence / "gt.npz").exists() and not overwrite:

@@ -348,32 +348,89 @@ def _stack(per_view: list[np.ndarray], combo: Seq[int | None],
     return xy, ok
 
 
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def check_options(layout: str, fps, person: str, min_confidence, frames) -> None:
+    """The reading settings, checked before any file is read; each error names the setting,
+    its value and what is allowed."""
+    if layout != "auto" and layout not in LAYOUTS:
+        raise ValueError(f"setting layout = {layout!r} is not a keypoint layout (one of: auto, "
+                         f"{', '.join(LAYOUTS)})")
+    if person not in ("subject", "all"):
+        raise ValueError(f"setting person = {person!r} is not allowed (subject: one person per frame; "
+                         "all: everyone as candidates)")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"setting fps = {fps!r} is out of range (frames per second, a number > 0)")
+    if (isinstance(min_confidence, bool) or not isinstance(min_confidence, (int, float))
+            or not 0.0 <= min_confidence < 1.0):
+        raise ValueError(f"setting min_confidence = {min_confidence!r} is out of range ([0, 1): "
+                         "keypoints below it are dropped; 0 keeps every keypoint found)")
+    if frames is not None and (not _is_int(frames) or frames < 1):
+        raise ValueError(f"setting frames = {frames!r} is out of range (an integer >= 1: read the first "
+                         "N frames, or null for all)")
+
+
+def find_ground_truth(root: Path, gt: str | Path | None) -> Path | None:
+    """The ground-truth file of a recording: ``gt`` (as given, else relative to ``root``) or,
+    without it, ``root/gt.npz`` when there is one (never ignored)."""
+    if gt is None:
+        found = root / "gt.npz"
+        return found if found.is_file() else None
+    p = Path(gt)
+    if not p.is_file() and not p.is_absolute() and (root / p).is_file():
+        p = root / p
+    if not p.is_file():
+        raise FileNotFoundError(f"setting gt = {str(gt)!r}: ground-truth file not found (a gt.npz: "
+                                "joints by name, docs/data_formats.md)")
+    return p
+
+
 def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None = None,
                            keypoints: str | Path | None = None, layout: str = "BODY_25B",
                            fps: float = 30.0, person: str = "subject", min_confidence: float = 0.0,
-                           frames: int | None = None, name: str | None = None) -> Sequence:
-    """A :class:`Sequence` with a rig and labelled keypoint detections (no ground truth).
+                           frames: int | None = None, name: str | None = None,
+                           gt: str | Path | None = None, nonfinite: str = "refuse") -> Sequence:
+    """A :class:`Sequence` with a rig and labelled keypoint detections, and ground truth
+    when the folder has a ``gt.npz`` or ``gt`` names one.
 
     path: the project folder; calibration: file relative to it (default: the single
     ``*.toml`` in it or in ``calibration/``); keypoints: folder of per-camera folders
     (default ``pose``); layout: a key of :data:`LAYOUTS`; person: "subject" or "all";
-    frames: keep the first N frames. Raises :class:`OpenPoseFormatError` (a ValueError) for
-    malformed files or camera names that don't match the folders.
+    frames: keep the first N frames; gt: a ground-truth file (the gt.npz of a sequence
+    folder, :func:`mocap.data.sequence_io.load_ground_truth`: joints by name in any skeleton
+    of :mod:`mocap.eval.by_name`, optionally several people) with one frame per frame of the
+    recording (frame 0: the first keypoint frame), checked before the keypoints are read;
+    nonfinite: NaN / Inf ground-truth joints refused or dropped. Raises
+    :class:`OpenPoseFormatError` (a ValueError) for malformed files or camera names that
+    don't match the folders.
     """
+    from mocap.data.sequence_io import NONFINITE, load_ground_truth
+
     root = Path(path)
+    check_options(layout, fps, person, min_confidence, frames)
+    if nonfinite not in NONFINITE:
+        raise ValueError(f"setting nonfinite = {nonfinite!r} is not allowed (one of: {', '.join(NONFINITE)})")
     if not root.is_dir():
         raise FileNotFoundError(f"recording folder not found: {root}")
-    if layout != "auto" and layout not in LAYOUTS:
-        raise ValueError(f"unknown keypoint layout {layout!r} (known: auto, {', '.join(LAYOUTS)})")
-    if person not in ("subject", "all"):
-        raise ValueError(f"person must be 'subject' or 'all', got {person!r}")
+    gt_path = find_ground_truth(root, gt)
+    dropped: dict[str, int] = {}
+    truth = load_ground_truth(gt_path, None, nonfinite, dropped) if gt_path is not None else None
+    layout_setting = layout
     calib = root / calibration if calibration is not None else _find_calibration(root)
     rig = load_calibration(calib)
     kp_root = root / (keypoints or "pose")
-    people = read_keypoint_folders(rig, kp_root, None if layout == "auto" else len(LAYOUTS[layout]))
+    people = read_keypoint_folders(rig, kp_root)      # K from the files; a named layout is checked below
     layout = resolve_layout(people, layout, kp_root)
     all_frames = sorted(set().union(*(p.keys() for p in people)))
     first = all_frames[0]
+    if truth is not None:
+        span = all_frames[-1] - first + 1
+        if truth.num_frames != span:
+            raise OpenPoseFormatError(gt_path, f"field 'joints' has {truth.num_frames} frames, the recording "
+                                               f"{span} (keypoint frames {first}-{all_frames[-1]}; one "
+                                               "ground-truth frame per frame, frame 0 the first)")
     all_frames = all_frames[:frames] if frames is not None else all_frames
     names = LAYOUTS[layout]
     labels = tuple(n for n in names if n is not None)
@@ -392,6 +449,12 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
                 for k in np.flatnonzero(keep):
                     rows.append((f - first, c, label_of[k], kp[k, 0], kp[k, 1], kp[k, 2], i))
     arr = np.array(rows, np.float64).reshape(-1, 7)
+    if not len(arr):
+        kept = f"no keypoint with confidence >= min_confidence = {min_confidence} "
+        raise OpenPoseFormatError(kp_root, (kept if min_confidence > 0 else "no keypoint ")
+                                  + ("of a subject seen consistently in 2+ views " if subject is not None
+                                     else "") + f"in frames {_ranges([f - first for f in all_frames])}"
+                                  + (" (try person=all)" if subject is not None else ""))
     seen = {(int(f), int(c)) for f, c in arr[:, :2]}
     without = {rig.names[c]: [f - first for f in all_frames if (f - first, c) not in seen]
                for c in range(len(rig))}
@@ -403,9 +466,19 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
     det = Detections(labels=labels, frame=arr[:, 0].astype(np.int64), view=arr[:, 1].astype(np.int64),
                      label=arr[:, 2].astype(np.int64), xy=arr[:, 3:5], confidence=arr[:, 5],
                      person=arr[:, 6].astype(np.int64))
-    meta = {"source": str(root), "calibration": str(calib), "layout": layout, "person": person,
-            "first_frame": int(first), "frames": len(all_frames), "frames_without_keypoints": without}
-    return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, meta=meta)
+    meta = {"source": str(root), "calibration": str(calib), "layout": layout,
+            "layout_setting": layout_setting, "person": person, "first_frame": int(first),
+            "frames": len(all_frames), "frames_without_keypoints": without}
+    if truth is not None:
+        from dataclasses import replace
+
+        last = all_frames[-1] - first + 1          # frames are numbered from the first keypoint frame
+        truth = replace(truth, **{k: (None if getattr(truth, k) is None else getattr(truth, k)[:last])
+                                  for k in ("joints", "joint_valid", "chi", "markers")})
+        meta["gt"] = str(gt_path)
+        if dropped:
+            meta["dropped_nonfinite"] = dropped
+    return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, gt=truth, meta=meta)
 
 
 def _ranges(frames: Seq[int]) -> str:
@@ -432,5 +505,35 @@ def _find_calibration(root: Path) -> Path:
 
 
 def openpose_sequence(*, body=None, path: str, **options) -> Sequence:
-    """Hydra entry point (``conf/data/pose2sim_demo.yaml``); ``body`` is accepted and unused."""
+    """Hydra entry point (``conf/data/pose2sim_demo.yaml``); ``body`` is accepted and unused.
+    An unknown setting is refused by name (before any file is read)."""
+    import inspect
+
+    known = [p for p in inspect.signature(load_openpose_sequence).parameters if p != "path"]
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a keypoint recording "
+                         f"(settings: path, {', '.join(known)})")
     return load_openpose_sequence(path, **options)
+
+
+def convert_pose2sim(src: str | Path, out: str | Path, *, person: str = "all", overwrite: bool = False,
+                     **options) -> Path:
+    """A Pose2Sim folder (calibration + per-view OpenPose JSON, optional gt.npz) -> a sequence
+    folder (:mod:`mocap.data.sequence_io`): calibration.json, detections.json with the
+    detector's per-view person grouping in its ``person`` column, gt.npz when there is ground
+    truth, sequence.json whose ``meta`` records the source, the resolved layout and the person
+    mode. ``person``: "all" (default: every person kept, grouped as the detector grouped them)
+    or "subject"; ``options``: the other settings of :func:`load_openpose_sequence`. Checked
+    before anything is written; written atomically."""
+    from mocap.data.sequence_io import write_sequence
+
+    out = Path(out)
+    if out.exists() and not overwrite:
+        raise FileExistsError(f"output folder {out} exists (--overwrite replaces it)")
+    if out.resolve() == Path(src).resolve():
+        raise ValueError(f"output folder {out} is the Pose2Sim folder itself: choose another")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)     # frames without keypoints: in the meta
+        seq = load_openpose_sequence(src, person=person, **options)
+    return write_sequence(seq, out, overwrite=overwrite)

@@ -60,7 +60,12 @@ class GroundTruth:
     Ground truth of a real dataset may be joints by name only: ``alpha``, ``chi`` and
     ``markers`` None (empty names), ``joint_names`` in any order and any skeleton
     (``skeleton``: a key of :data:`mocap.eval.by_name.SKELETONS`, "" for mocap's own names),
-    ``joint_valid`` (F, J) bool where a joint was measured (None: everywhere)."""
+    ``joint_valid`` (F, J) bool where a joint was measured (None: everywhere).
+
+    Several people: ``person_names`` (P,) non-empty, ``joints`` (F, P, J, 3) and ``joint_valid``
+    (F, P, J) (a person absent in a frame: invalid there); no ``chi``, ``alpha`` or ``markers``.
+    :meth:`person` gives one person's ground truth (scored per person with the best assignment
+    of tracks to people, :mod:`mocap.eval.people`)."""
 
     alpha: np.ndarray | None
     chi: np.ndarray | None
@@ -72,10 +77,27 @@ class GroundTruth:
     body: str = ""
     joint_valid: np.ndarray | None = None
     skeleton: str = ""
+    person_names: tuple[str, ...] = ()
 
     @property
     def num_frames(self) -> int:
         return len(self.joints)
+
+    @property
+    def num_people(self) -> int:
+        """People with a ground truth: len(person_names), 1 without a person axis."""
+        return len(self.person_names) or 1
+
+    def person(self, p: int) -> GroundTruth:
+        """Person p's ground truth, joints (F, J, 3) (without a person axis: itself, p = 0)."""
+        if not self.person_names:
+            if p != 0:
+                raise IndexError(f"ground truth has one person, asked for person {p}")
+            return self
+        valid = None if self.joint_valid is None else self.joint_valid[:, p]
+        return GroundTruth(alpha=None, chi=None, joints=self.joints[:, p], markers=None, dof_names=(),
+                           joint_names=self.joint_names, marker_names=(), body=self.body,
+                           joint_valid=valid, skeleton=self.skeleton)
 
 
 @dataclass(frozen=True)

@@ -8,13 +8,17 @@
       masks/<view>/NNNNNN.png    silhouettes, 8-bit, 0 background / 255 foreground
       images/<view>/NNNNNN.png   RGB images (PNG, lossless)
       detections.json      {"labels": [marker names], "columns": ["frame", "view", "label",
-                            "x", "y", "confidence"], "rows": [[...], ...]}; view indexes
-                            "views", label indexes "labels" (-1: unlabelled)
+                            "x", "y", "confidence"(, "person")], "rows": [[...], ...]}; view
+                            indexes "views", label indexes "labels" (-1: unlabelled); the
+                            optional "person": the detector's skeleton in its (frame, view)
+                            (-1: unknown; ``mocap convert`` keeps OpenPose's)
       gt.npz               alpha (K,), chi (F, D), joints (F, J, 3), markers (F, L, 3),
                            dof_names, joint_names, marker_names, body; or, for a real
                            dataset, joints by name only: joint_names (J,), joints (F, J, 3),
                            optional joint_valid (F, J) bool and skeleton (a key of
-                           mocap.eval.by_name.SKELETONS; "" = mocap's own joint names)
+                           mocap.eval.by_name.SKELETONS; "" = mocap's own joint names);
+                           several people: joints (F, P, J, 3), joint_valid (F, P, J),
+                           optional person_names (P,) (scored per person, best assignment)
 
 Masks are foreground where the pixel is non-zero in a 0/1 image (maximum 1) and above 127
 otherwise, so 0/1, 0/255 and 1-bit PNGs load the same; a view whose masks are all empty is
@@ -94,8 +98,12 @@ def write_sequence(seq: Sequence, folder: str | Path, overwrite: bool = False) -
             rows = [[int(f), int(v), int(lb), float(x), float(y), float(c)]
                     for f, v, lb, (x, y), c in zip(d.frame, d.view, d.label, d.xy, d.confidence,
                                                    strict=True)]
+            columns = _COLUMNS
+            if d.person is not None:            # the detector's grouping into skeletons, kept
+                columns = [*_COLUMNS, "person"]
+                rows = [[*r, int(p)] for r, p in zip(rows, d.person, strict=True)]
             (tmp / "detections.json").write_text(json.dumps(
-                {"labels": list(d.labels), "columns": _COLUMNS, "rows": rows}))
+                {"labels": list(d.labels), "columns": columns, "rows": rows}))
         if seq.gt is not None:
             write_ground_truth(seq.gt, tmp / "gt.npz")
         w, h = seq.image_size
@@ -158,9 +166,12 @@ NONFINITE = ("refuse", "drop")
 
 
 def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
-                  nonfinite: str = "refuse") -> Sequence:
+                  nonfinite: str = "refuse", gt: str | Path | None = None) -> Sequence:
     """Read and validate a sequence folder (``images=False`` skips the RGB images);
-    ``nonfinite``: refuse (default) or drop NaN / Inf ground-truth joints and detections."""
+    ``nonfinite``: refuse (default) or drop NaN / Inf ground-truth joints and detections.
+    ``gt``: a ground-truth file (:func:`load_ground_truth`) used instead of the folder's; without
+    it the folder's gt.npz is used whenever it is there (even if sequence.json does not list
+    it: a ground truth is never ignored; its path is ``meta["gt"]``)."""
     if nonfinite not in NONFINITE:
         raise ValueError(f"setting nonfinite = {nonfinite!r} is not allowed (one of: {', '.join(NONFINITE)})")
     folder = Path(folder)
@@ -193,40 +204,53 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
     dropped: dict[str, int] = {}
     det = (_load_detections(folder / "detections.json", views, frames, nonfinite, dropped)
            if content.get("detections") else None)
-    gt = _load_gt(folder / "gt.npz", frames, nonfinite, dropped) if content.get("gt") else None
+    gt_path = Path(gt) if gt is not None else folder / "gt.npz"
+    if gt is not None or (gt_path.is_file() and not content.get("gt")):
+        truth = load_ground_truth(gt_path, frames, nonfinite, dropped)
+    else:
+        truth = _load_gt(gt_path, frames, nonfinite, dropped) if content.get("gt") else None
     meta = dict(info.get("meta", {}))
+    if truth is not None:
+        meta["gt"] = str(gt_path)
     if dropped:
         meta["dropped_nonfinite"] = dropped
         warnings.warn(f"{folder}: non-finite values dropped (nonfinite=drop): "
                       + ", ".join(f"{n} {what}" for what, n in dropped.items()), stacklevel=2)
     return Sequence(name=str(info.get("name", folder.name)), rig=rig, fps=float(info.get("fps", 25.0)),
-                    masks=masks, images=imgs, detections=det, gt=gt, meta=meta)
+                    masks=masks, images=imgs, detections=det, gt=truth, meta=meta)
 
 
 def _load_detections(path: Path, views: list[str], frames: int | None = None, nonfinite: str = "refuse",
                      dropped: dict | None = None) -> Detections:
     d = _read_json(path, "sequence.json lists detections")
     labels = tuple(_require(d, "labels", path))
-    if _require(d, "columns", path) != _COLUMNS:
-        raise SequenceFormatError(f"{path}: field 'columns' must be {_COLUMNS}")
+    columns = _require(d, "columns", path)
+    if columns not in (_COLUMNS, [*_COLUMNS, "person"]):
+        raise SequenceFormatError(f"{path}: field 'columns' must be {_COLUMNS} (optionally with 'person' "
+                                  f"last), got {columns}")
+    n = len(columns)
     try:
-        rows = np.asarray(_require(d, "rows", path), dtype=np.float64).reshape(-1, 6)
+        rows = np.asarray(_require(d, "rows", path), dtype=np.float64)
+        if rows.size and (rows.ndim != 2 or rows.shape[1] != n):
+            raise ValueError(f"shape {rows.shape}")
+        rows = rows.reshape(-1, n)
     except (TypeError, ValueError) as exc:
-        raise SequenceFormatError(f"{path}: field 'rows' must be rows of 6 numbers ({exc})") from None
+        raise SequenceFormatError(f"{path}: field 'rows' must be rows of {n} numbers ({exc})") from None
     bad = ~np.isfinite(rows).all(axis=1)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        col = _COLUMNS[int(np.flatnonzero(~np.isfinite(rows[i]))[0])]
-        if nonfinite != "drop" or not np.isfinite(rows[bad][:, :3]).all():
+        col = columns[int(np.flatnonzero(~np.isfinite(rows[i]))[0])]
+        if nonfinite != "drop" or not np.isfinite(rows[bad][:, [0, 1, 2, *range(6, n)]]).all():
             raise SequenceFormatError(
-                f"{path}: field 'rows': row {i} has {col} = {rows[i, _COLUMNS.index(col)]} "
+                f"{path}: field 'rows': row {i} has {col} = {rows[i, columns.index(col)]} "
                 f"({int(bad.sum())} row(s) with NaN/Inf; data.nonfinite=drop leaves out rows with a "
                 "non-finite x, y or confidence)")
         rows = rows[~bad]
         if dropped is not None:
             dropped["detection rows"] = int(bad.sum())
     checks = (("view", 1, 0, len(views)), ("label", 2, -1, len(labels)),
-              ("frame", 0, 0, frames if frames is not None else np.inf))
+              ("frame", 0, 0, frames if frames is not None else np.inf),
+              *((("person", 6, -1, np.inf),) if n == 7 else ()))
     for name, c, lo, hi in checks:
         out = (rows[:, c] < lo) | (rows[:, c] >= hi) | (rows[:, c] != np.round(rows[:, c]))
         if out.any():
@@ -236,7 +260,8 @@ def _load_detections(path: Path, views: list[str], frames: int | None = None, no
     try:
         return Detections(labels=labels, frame=rows[:, 0].astype(np.int64),
                           view=rows[:, 1].astype(np.int64), label=rows[:, 2].astype(np.int64),
-                          xy=rows[:, 3:5].copy(), confidence=rows[:, 5].copy())
+                          xy=rows[:, 3:5].copy(), confidence=rows[:, 5].copy(),
+                          person=rows[:, 6].astype(np.int64) if n == 7 else None)
     except ValueError as exc:
         raise SequenceFormatError(f"{path}: {exc}") from exc
 
@@ -250,32 +275,88 @@ def write_ground_truth(g: GroundTruth, path: Path) -> None:
             arrays[key] = getattr(g, key)
     for key in ("dof_names", "marker_names"):
         arrays[key] = np.array(getattr(g, key), dtype=str)
+    if g.person_names:
+        arrays["person_names"] = np.array(g.person_names, dtype=str)
     np.savez_compressed(path, **arrays)
 
 
-def _load_gt(path: Path, frames: int, nonfinite: str = "refuse", dropped: dict | None = None) -> GroundTruth:
+def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: str = "refuse",
+                      dropped: dict | None = None) -> GroundTruth:
+    """A gt.npz (the fields of the module docstring; a person axis: ``joints`` (F, P, J, 3),
+    optional ``person_names`` (P,) and ``joint_valid`` (F, P, J)), validated before any work:
+    every error names the file and the field. ``frames``: the frames the data has (None: not
+    checked)."""
+    path = Path(path)
     if not path.is_file():
-        raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
-    with np.load(path) as z:
-        for key in ("joints", "joint_names"):
-            if key not in z:
-                raise SequenceFormatError(f"{path}: missing field '{key}'")
-        get = lambda k: z[k] if k in z else None  # noqa: E731
-        names = lambda k: tuple(str(n) for n in z[k]) if k in z else ()  # noqa: E731
-        gt = GroundTruth(alpha=get("alpha"), chi=get("chi"), joints=z["joints"], markers=get("markers"),
-                         dof_names=names("dof_names"), joint_names=names("joint_names"),
-                         marker_names=names("marker_names"), body=str(z["body"]) if "body" in z else "",
-                         joint_valid=None if get("joint_valid") is None else z["joint_valid"].astype(bool),
-                         skeleton=str(z["skeleton"]) if "skeleton" in z else "")
+        raise SequenceFormatError(f"{path}: ground-truth file not found")
+    try:
+        z = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as exc:
+        raise SequenceFormatError(f"{path}: not a readable .npz file ({exc})") from None
+    if not hasattr(z, "files"):
+        raise SequenceFormatError(f"{path}: not a .npz archive of named arrays (one array saved with "
+                                  "np.save?)")
+    try:
+        with z:
+            for key in ("joints", "joint_names"):
+                if key not in z:
+                    raise SequenceFormatError(f"{path}: missing field '{key}' (has "
+                                              f"{', '.join(z.files) or 'none'})")
+            get = lambda k: z[k] if k in z else None  # noqa: E731
+            names = lambda k: tuple(str(n) for n in np.atleast_1d(z[k])) if k in z else ()  # noqa: E731
+            joints = z["joints"]
+            if not np.issubdtype(joints.dtype, np.number):
+                raise SequenceFormatError(f"{path}: field 'joints' must be numbers, got dtype {joints.dtype}")
+            gt = GroundTruth(alpha=get("alpha"), chi=get("chi"), joints=joints.astype(np.float64),
+                             markers=get("markers"), dof_names=names("dof_names"),
+                             joint_names=names("joint_names"), marker_names=names("marker_names"),
+                             body=str(z["body"]) if "body" in z else "",
+                             joint_valid=None if "joint_valid" not in z else z["joint_valid"].astype(bool),
+                             skeleton=str(z["skeleton"]) if "skeleton" in z else "",
+                             person_names=names("person_names"))
+    except (ValueError, OSError, EOFError) as exc:
+        if isinstance(exc, SequenceFormatError):
+            raise
+        raise SequenceFormatError(f"{path}: cannot read the arrays ({exc})") from None
     J = len(gt.joint_names)
-    if gt.joints.ndim != 3 or gt.joints.shape[1:] != (J, 3):
-        raise SequenceFormatError(f"{path}: field 'joints' must be (F, {J}, 3) for {J} joint_names, "
-                                  f"got {gt.joints.shape}")
+    people = gt.joints.ndim == 4
+    if people:
+        P = gt.joints.shape[1]
+        if not gt.person_names:
+            from dataclasses import replace
+
+            gt = replace(gt, person_names=tuple(f"person{p}" for p in range(P)))
+        if len(gt.person_names) != P:
+            raise SequenceFormatError(f"{path}: field 'person_names' has {len(gt.person_names)} names, "
+                                      f"'joints' {gt.joints.shape} has {P} people (axis 1)")
+        if len(set(gt.person_names)) != P:
+            raise SequenceFormatError(f"{path}: field 'person_names' repeats a name")
+        for key in ("chi", "alpha", "markers"):
+            if getattr(gt, key) is not None:
+                raise SequenceFormatError(f"{path}: field '{key}' is not allowed with several people "
+                                          "(joints (F, P, J, 3)): joints by name only")
+    elif gt.person_names:
+        raise SequenceFormatError(f"{path}: field 'person_names' needs 'joints' with a person axis "
+                                  f"(F, P, J, 3), got {gt.joints.shape}")
+    shape = gt.joints.shape
+    if gt.joints.ndim not in (3, 4) or shape[-2:] != (J, 3):
+        raise SequenceFormatError(f"{path}: field 'joints' must be (F, {J}, 3), or (F, P, {J}, 3) for P "
+                                  f"people, for {J} joint_names; got {shape}")
     if len(set(gt.joint_names)) != J:
         raise SequenceFormatError(f"{path}: field 'joint_names' repeats a name")
-    if gt.joint_valid is not None and gt.joint_valid.shape != gt.joints.shape[:2]:
-        raise SequenceFormatError(f"{path}: field 'joint_valid' must be {gt.joints.shape[:2]}, "
-                                  f"got {gt.joint_valid.shape}")
+    if gt.joint_valid is not None and gt.joint_valid.shape != shape[:-1]:
+        raise SequenceFormatError(f"{path}: field 'joint_valid' must be {shape[:-1]} (as 'joints' without "
+                                  f"its last axis), got {gt.joint_valid.shape}")
+    if gt.skeleton:
+        from mocap.eval.by_name import SKELETONS, JointNameError, resolve_mapping
+
+        if gt.skeleton not in SKELETONS:
+            raise SequenceFormatError(f"{path}: field 'skeleton' is {gt.skeleton!r}, not a known skeleton "
+                                      f"(one of: {', '.join(SKELETONS)}; empty for mocap's own joint names)")
+        try:
+            resolve_mapping(gt.joint_names, [v for v in SKELETONS[gt.skeleton].values() if v], gt.skeleton)
+        except JointNameError as exc:
+            raise SequenceFormatError(f"{path}: field 'joint_names': {exc}") from None
     for key in ("chi", "markers"):
         arr = getattr(gt, key)
         if arr is not None and len(arr) != len(gt.joints):
@@ -284,22 +365,23 @@ def _load_gt(path: Path, frames: int, nonfinite: str = "refuse", dropped: dict |
     if gt.chi is not None and gt.dof_names and gt.chi.shape[1:] != (len(gt.dof_names),):
         raise SequenceFormatError(f"{path}: field 'chi' is {gt.chi.shape}, 'dof_names' has "
                                   f"{len(gt.dof_names)} names")
-    if len(gt.joints) != frames:
-        raise SequenceFormatError(f"{path}: field 'joints' has {len(gt.joints)} frames, sequence.json "
-                                  f"says {frames}")
+    if frames is not None and len(gt.joints) != frames:
+        raise SequenceFormatError(f"{path}: field 'joints' has {len(gt.joints)} frames, the data has "
+                                  f"{frames} (one ground-truth frame per frame of the recording)")
     for key in ("chi", "markers", "alpha"):
         arr = getattr(gt, key)
         if arr is not None and not np.isfinite(arr).all():
             where = np.argwhere(~np.isfinite(np.asarray(arr)))[0]
             raise SequenceFormatError(f"{path}: field '{key}' has NaN/Inf (first at index "
                                       f"{tuple(int(i) for i in where)}; never dropped)")
-    valid = np.ones(gt.joints.shape[:2], bool) if gt.joint_valid is None else gt.joint_valid
-    bad = valid & ~np.isfinite(gt.joints).all(axis=2)
+    valid = np.ones(shape[:-1], bool) if gt.joint_valid is None else gt.joint_valid
+    bad = valid & ~np.isfinite(gt.joints).all(axis=-1)
     if bad.any():
-        f, j = (int(i) for i in np.argwhere(bad)[0])
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        at = f"frame {where[0]}, " + (f"person {gt.person_names[where[1]]!r}, " if people else "")
         if nonfinite != "drop":
             raise SequenceFormatError(
-                f"{path}: field 'joints' has NaN/Inf at frame {f}, joint {gt.joint_names[j]!r} "
+                f"{path}: field 'joints' has NaN/Inf at {at}joint {gt.joint_names[where[-1]]!r} "
                 f"({int(bad.sum())} joint position(s); mark them invalid in 'joint_valid', or "
                 "data.nonfinite=drop leaves them out)")
         from dataclasses import replace
@@ -308,3 +390,9 @@ def _load_gt(path: Path, frames: int, nonfinite: str = "refuse", dropped: dict |
         if dropped is not None:
             dropped["ground-truth joints"] = int(bad.sum())
     return gt
+
+
+def _load_gt(path: Path, frames: int, nonfinite: str = "refuse", dropped: dict | None = None) -> GroundTruth:
+    if not path.is_file():
+        raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
+    return load_ground_truth(path, frames, nonfinite, dropped)

@@ -28,7 +28,7 @@ def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, 
 def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
                     views: Sequence_[int | str] | None = None,
                     silhouette_noise: Mapping | None = None, seed: int = 0,
-                    nonfinite: str = "refuse") -> Sequence:
+                    nonfinite: str = "refuse", gt: str | None = None) -> Sequence:
     """A sequence folder written by ``mocap make-dataset`` (or converted data).
 
     path: the folder (a relative path is relative to the working directory).
@@ -37,11 +37,20 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
     every mask, deterministically for ``seed`` (the same seed gives the same masks).
     nonfinite: NaN / Inf in the ground truth or detections: refuse (default) or drop them
     (counted in the sequence's meta and the run's metrics.json, ``dropped_nonfinite``).
+    gt: a ground-truth file used instead of the folder's gt.npz (which is otherwise used
+    whenever it is there): joints by name, :func:`mocap.data.sequence_io.load_ground_truth`.
     """
     p = Path(path)
     if not p.is_dir():
         raise FileNotFoundError(f"data path not found: {p}")
-    seq = load_sequence(p, images=images, nonfinite=nonfinite)
+    if not (p / "sequence.json").is_file() and any(p.glob("*.toml")) and (p / "pose").is_dir():
+        raise ValueError(f"data path {p} is a Pose2Sim folder (Calib.toml, pose/), not a sequence folder: "
+                         f"track it with data=pose2sim_demo data.path={p}, or make a sequence folder with "
+                         f"mocap convert {p} OUT")
+    if gt is not None and not Path(gt).is_file():
+        raise FileNotFoundError(f"setting gt = {str(gt)!r}: ground-truth file not found (a gt.npz: joints by "
+                                "name, docs/data_formats.md)")
+    seq = load_sequence(p, images=images, nonfinite=nonfinite, gt=gt)
     changes: dict = {}
     if name:
         changes["name"] = str(name)

@@ -62,12 +62,14 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
                         stop: int | None = None, step: int = 1, scale: float = 1.0,
                         size_tolerance: float = 0.02, masks: str | None = None,
                         segmentation: Mapping | None = None, refine_masks: Mapping | None = None,
-                        name: str | None = None) -> Sequence:
+                        name: str | None = None, gt: str | None = None) -> Sequence:
     """A :class:`Sequence` with lazy video images, the scaled rig, keypoint detections (if
     ``keypoints``) and masks (if ``masks`` or ``segmentation``). refine_masks: options of
     :func:`mocap.video.person_masks.combine_masks` (e.g. ``{grabcut: true, background:
     masked_median}``) applied to the person probabilities of a ``mocap detect`` masks folder
-    (``masks=<out>/masks``), guided by the sequence's keypoints."""
+    (``masks=<out>/masks``), guided by the sequence's keypoints. gt: a ground-truth file (default:
+    the folder's gt.npz, when there is one), one frame per keypoint frame as for
+    :func:`mocap.data.openpose.load_openpose_sequence`; the tracked frames are taken from it."""
     root = Path(path)
     if not root.is_dir():
         raise FileNotFoundError(f"recording folder not found: {root}")
@@ -82,16 +84,24 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
     W, H = (int(x) for x in full_rig.sizes[0])
     w, h = images.width, images.height
     fps = float(fps) if fps else images.infos[0].fps
-    det = None
+    det = truth = None
+    resolved = {"layout": layout, "person": person}
     if keypoints:
         op = load_openpose_sequence(root, calibration=calibration, keypoints=keypoints, layout=layout,
-                                    fps=fps, person=person)
+                                    fps=fps, person=person, gt=gt)
         first = op.meta["first_frame"]
         det = rescale_detections(op.detections, [n - first for n in frames], w / W, h / H)
+        resolved = {"layout": op.meta["layout"], "layout_setting": layout, "person": person}
+        if op.gt is not None:
+            truth = _ground_truth_frames(op.gt, [n - first for n in frames], op.meta["gt"])
+            resolved["gt"] = op.meta["gt"]
+    elif gt is not None or (root / "gt.npz").is_file():
+        raise ValueError(f"ground truth {gt or root / 'gt.npz'} needs keypoints (its frame 0 is the first "
+                         "keypoint frame): set keypoints (or remove gt.npz)")
     meta = {"source": str(root), "calibration": str(calib), "videos": [str(p) for p in paths],
-            "source_frames": frames, "scale": float(scale), "layout": layout, "person": person}
+            "source_frames": frames, "scale": float(scale), **resolved}
     seq = Sequence(name=name or root.name, rig=rig, fps=fps / step, images=images, detections=det,
-                   meta=meta)
+                   gt=truth, meta=meta)
     if refine_masks is not None and masks is None:
         raise ValueError("refine_masks needs masks=<mocap detect output>/masks (the detector's "
                          "probabilities)")
@@ -150,8 +160,26 @@ def masks_from_folder(folder: Path, seq: Sequence) -> np.ndarray:
     return seg.masks
 
 
+def _ground_truth_frames(gt, idx: list[int], path: str):
+    """The ground truth of the tracked frames ``idx`` (indices into its frames)."""
+    bad = [i for i in idx if not 0 <= i < gt.num_frames]
+    if bad:
+        raise ValueError(f"{path}: field 'joints' has {gt.num_frames} frames, the video frames tracked need "
+                         f"frame {bad[0]} (frame 0: the first keypoint frame)")
+    return replace(gt, **{k: None if getattr(gt, k) is None else getattr(gt, k)[idx]
+                          for k in ("joints", "joint_valid", "chi", "markers")})
+
+
 def video_sequence(*, body=None, path: str, **options) -> Sequence:
-    """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused."""
+    """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused. An
+    unknown setting is refused by name (before any file is read)."""
+    import inspect
+
+    known = [p for p in inspect.signature(load_video_sequence).parameters if p != "path"]
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a video recording "
+                         f"(settings: path, {', '.join(known)})")
     return load_video_sequence(path, **options)
 
 

@@ -49,10 +49,12 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     F = len(estimates)
     tracked = seconds[1:]
     out: dict = {"frames": F}
+    out.update(data_settings(seq))
     if seq.gt is not None:
         out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]),
                                     np.stack([e.alpha for e in estimates])))
-    elif seq.detections is not None and len(seq.detections):
+    keypoint_recording = "layout" in seq.meta     # read from keypoint files: scored on them too
+    if seq.detections is not None and len(seq.detections) and (seq.gt is None or keypoint_recording):
         from mocap.eval.keypoint_metrics import keypoint_run_metrics
 
         out.update(keypoint_run_metrics(body, seq, estimates))
@@ -65,12 +67,29 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     return out
 
 
+def data_settings(seq: Sequence) -> dict:
+    """What the data was read as, resolved (not the config's ``auto``): for keypoint recordings
+    ``keypoints`` {layout, layout_setting, person}; ``ground_truth``: the ground-truth file
+    and its people, when it came from a file."""
+    out: dict = {}
+    if "layout" in seq.meta:
+        out["keypoints"] = {k: seq.meta[k] for k in ("layout", "layout_setting", "person") if k in seq.meta}
+    if seq.gt is not None and "gt" in seq.meta:
+        out["ground_truth"] = {"file": seq.meta["gt"], "people": list(seq.gt.person_names) or 1,
+                               "skeleton": seq.gt.skeleton or "mocap"}
+    return out
+
+
 def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray) -> dict:
     """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,),
     or one shape per frame (F, K) (frame 0: the initialisation): what a run is re-scored with
-    when the evaluation changes (``mocap rescore``)."""
+    when the evaluation changes (``mocap rescore``). Ground truth of several people: the
+    per-person scores of :func:`mocap.eval.people.score_people` (the run's one track assigned
+    to the person it follows best)."""
     F = len(chis)
     out: dict = {}
+    if seq.gt.person_names:
+        return people_accuracy(body, seq.gt, [(alpha, chis)])
     scorer = NameScorer(body, seq.gt)
     points = scorer.points_by_shape(alpha, chis)
     scores = scorer.score(points)     # joints matched by name
@@ -87,4 +106,23 @@ def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np
     if seq.gt.markers is not None and tuple(seq.gt.marker_names) == landmarks.names:
         est_markers = per_shape(body, alpha, chis, landmarks.positions)
         out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
+    return out
+
+
+def people_accuracy(body: BodyModel, gt, tracks) -> dict:
+    """Per-person accuracy of tracks [(alpha (K,) or (F, K), chis (F, D) with NaN rows where the
+    track does not exist)] against a ground truth of several people (:mod:`mocap.eval.people`);
+    ``frames_lost``: tracked frames of the assigned people above the lost threshold."""
+    from mocap.eval.people import score_people
+
+    scorer = NameScorer(body, gt.person(0))     # names checked against the body
+    points = []
+    for alpha, chis in tracks:
+        chis = np.asarray(chis, np.float64)
+        have = np.isfinite(chis).all(axis=1)
+        pts = scorer.points_by_shape(alpha, np.where(have[:, None], chis, 0.0))
+        points.append({n: np.where(have[:, None], v, np.nan) for n, v in pts.items()})
+    out = score_people(points, gt, scorer.mapping, **scorer.kwargs)
+    per_frame = [np.asarray(e["per_frame_mm"], float) for e in out["people"].values() if "per_frame_mm" in e]
+    out["frames_lost"] = int(sum(np.sum(np.nan_to_num(pf[1:], nan=0.0) > LOST_MM) for pf in per_frame))
     return out

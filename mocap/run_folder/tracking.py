@@ -71,6 +71,11 @@ Extra = Callable[[dict, TrackResult, BodyModel, Sequence], dict]
 INIT_MODES = ("gt_noise", "tracker")
 
 
+#: the note added to an exception raised after every check passed (while tracking or writing the
+#: results): not a user's mistake, so ``mocap`` shows its traceback (mocap_cli/errors.py)
+DURING_WORK_NOTE = "mocap: raised while tracking, after every setting and input was checked"
+
+
 class RunDirectoryConflict(FileExistsError):
     """The run directory holds the results of another configuration (resume_on_change=fail)."""
 
@@ -209,7 +214,9 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
         tracker.check_sequence(seq)
     # ground truth this body cannot be scored against fails here, naming the joints, not after
     # the initialisation and tracking
-    scorer = NameScorer(body, seq.gt) if seq.gt is not None else None
+    scorer = NameScorer(body, seq.gt.person(0)) if seq.gt is not None else None
+    if seq.gt is not None and seq.gt.person_names:
+        scorer = None           # several people: scored per person at the end (mocap.eval.people)
     if mode == "tracker":
         if not hasattr(tracker, "initial_estimate"):
             raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
@@ -287,6 +294,8 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
         write_manifest(out_dir, ["motion.npz", "metrics.json", *(["recording.rrd"] if recording else [])],
                        overrides)
     except BaseException as exc:
+        if isinstance(exc, Exception) and not isinstance(exc, OSError):
+            exc.add_note(DURING_WORK_NOTE)
         sink.finish(None, failed=True)
         kept = (" (the earlier complete run is kept in previous_run/)"
                 if (out_dir / "previous_run").is_dir() else "")
@@ -294,7 +303,12 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
               file=sys.stderr)
         raise
     drop_previous(out_dir)
-    accuracy = (f"MPJPE {metrics['mpjpe_mm']:.1f} ± {metrics['mpjpe_std_mm']:.1f} mm, "
-                if "mpjpe_mm" in metrics else "")
+    accuracy = ""
+    if "mpjpe_mm" in metrics:
+        spread = f" ± {metrics['mpjpe_std_mm']:.1f}" if "mpjpe_std_mm" in metrics else ""
+        accuracy = f"MPJPE {metrics['mpjpe_mm']:.1f}{spread} mm, "
+    if "people" in metrics:         # ground truth of several people
+        accuracy += (f"{metrics['people_tracked']} of {metrics['people_in_ground_truth']} people tracked, "
+                     f"{metrics['identity_switches']} identity switches, ")
     print(f"{tracker.name}: {accuracy}{metrics['sec_per_frame']:.2f} s/frame -> {out_dir}")
     return metrics

@@ -20,11 +20,12 @@ import argparse
 from pathlib import Path
 
 from mocap.eval.ablation import collect, markdown, plot, table_rows, write_csv
+from mocap_cli.errors import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap ablate", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap ablate", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("sweep_dir", type=Path)
     p.add_argument("--out", type=Path, default=None, help="output folder (default: the sweep dir)")
     p.add_argument("--title", default="Ablation")

@@ -22,11 +22,12 @@ from pathlib import Path
 from mocap.body.build.assemble import ANNY_ATTRIBUTION, BuildSettings, build_model
 from mocap.body.build.database import load_mesh_folder, sample_anny
 from mocap.body.model_file import default_model_path, load_body_model_data, save_body_model_data
+from mocap_cli.errors import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap build-body-model", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap build-body-model", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--anny", type=int, metavar="N", help="sample N adult bodies from anny")
     src.add_argument("--meshes", type=Path, help="folder of registered meshes of one topology")

@@ -26,11 +26,12 @@ import warnings
 
 from mocap.video.detect import plan_detection, run_detection
 from mocap.video.detector import DetectorSettings, detector_available
+from mocap_cli.errors import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap detect", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap detect", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("recording", help="folder with the calibration and videos/")
     p.add_argument("--out", required=True, help="output folder (new, or one written by mocap detect)")
     p.add_argument("--videos", default="videos", help="video folder inside the recording (default videos)")

@@ -12,19 +12,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mocap.data.named_joints import add_ground_truth, read_named_joints
+from mocap.data.named_joints import add_ground_truth, read_named_joints, sequence_info
 from mocap.eval.by_name import SKELETONS
+from mocap_cli.errors import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap gt-from-joints", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap gt-from-joints", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("joints_dir", type=Path)
     p.add_argument("sequence_dir", type=Path)
     p.add_argument("--skeleton", default="", choices=["", *SKELETONS])
     p.add_argument("--scale", type=float, default=1.0, help="to metres (0.001 for mm)")
     p.add_argument("--overwrite", action="store_true")
     args = p.parse_args(argv)
+    sequence_info(args.sequence_dir)        # a folder that is not a sequence folder: refused first
     names, joints, valid = read_named_joints(args.joints_dir, args.scale)
     out = add_ground_truth(args.sequence_dir, names, joints, valid, args.skeleton, args.overwrite)
     print(f"wrote {out}: {joints.shape[0]} frames, {len(names)} joints, "

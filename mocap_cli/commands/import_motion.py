@@ -15,6 +15,7 @@ import argparse
 from pathlib import Path
 
 from mocap.clips.bvh import UNITS
+from mocap_cli.errors import ArgumentParser
 
 
 def frame_slice(text: str) -> slice:
@@ -29,8 +30,8 @@ def frame_slice(text: str) -> slice:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap import-motion", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap import-motion", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("clip", type=Path, help="a BVH file")
     p.add_argument("--out", type=Path, required=True, help="motion.npz, or a folder for one")
     p.add_argument("--body", default="paper22", help="body preset (paper22, full, ...)")

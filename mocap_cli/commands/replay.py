@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from mocap.recording.reader import read_recording, summary_text
+from mocap_cli.errors import ArgumentParser
 
 
 def find_recording(target: Path) -> Path:
@@ -32,8 +33,8 @@ def find_recording(target: Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap replay", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap replay", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("target", type=Path, help="run directory or .rrd file")
     p.add_argument("--summary", action="store_true", help="print the summary, never open a viewer")
     args = p.parse_args(argv)

@@ -25,6 +25,7 @@ from mocap.export.motion import load_motion
 from mocap.run_folder import run_body, run_sequence, write_json
 from mocap.run_folder.manifest import PREVIOUS, read_manifest, require_complete, write_manifest
 from mocap_cli import source_checkout
+from mocap_cli.errors import ArgumentParser
 
 SUMMARY = ("mpjpe_mm", "frames_lost", "pcp")
 
@@ -70,8 +71,8 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap rescore", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap rescore", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("targets", nargs="+", type=Path, help="run directories or folders holding them")
     p.add_argument("--dry-run", action="store_true", help="print the new figures, write nothing")
     args = p.parse_args(argv)

@@ -6,7 +6,6 @@ shape components, and a few poses of the paper's 22 DOFs. Writes a Rerun recordi
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import matplotlib
@@ -19,6 +18,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 from mocap import presets  # noqa: E402
 from mocap.body import BodyModel, load_body_model  # noqa: E402
 from mocap.recording.body_gallery import write_body_gallery  # noqa: E402
+from mocap_cli.errors import ArgumentParser
 
 
 def gallery(model: BodyModel) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -90,7 +90,7 @@ def contact_sheet(model: BodyModel, shapes, poses, labels, path: Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap show-body", description=__doc__)
+    p = ArgumentParser(prog="mocap show-body", description=__doc__)
     p.add_argument("--out", type=Path, default=Path("outputs") / "body",
                    help="output folder (relative: the working directory)")
     p.add_argument("--png", type=Path, default=None, help="also write the contact sheet here")

@@ -16,11 +16,12 @@ from mocap import presets
 from mocap.body import load_body_model
 from mocap.energy.prior import default_prior_path
 from mocap.energy.train_prior import train_prior
+from mocap_cli.errors import ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="mocap train-prior", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = ArgumentParser(prog="mocap train-prior", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--body", default="paper22", help="body preset (mocap/presets/body)")
     p.add_argument("--samples", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)

@@ -1,0 +1,52 @@
+"""``mocap convert``: a Pose2Sim folder (calibration, OpenPose JSON per view under pose/,
+optional gt.npz) -> a sequence folder (sequence.json, calibration.json, detections.json, gt.npz).
+
+    mocap convert ../shared/data/pose2sim-demo outputs/demo_seq --fps 60
+    mocap convert REC OUT --person subject --layout BODY_25B --frames 50
+
+The detector's grouping of keypoints into people is kept per view (detections.json's person
+column; --person all, the default) or one person is picked per frame (--person subject). The
+keypoint layout is detected (--layout auto) and recorded in sequence.json with the person mode.
+Track the result with ``mocap track data=folder data.path=OUT tracker=marker_apf
+init.mode=tracker``; ``mocap gt-from-joints JOINTS OUT`` adds ground truth to it.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from mocap.data.openpose import LAYOUTS, convert_pose2sim
+from mocap_cli.errors import ArgumentParser
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = ArgumentParser(prog="mocap convert", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("recording", help="Pose2Sim folder: a calibration (*.toml) and pose/<camera>_json/")
+    p.add_argument("out", help="the sequence folder to write (new; --overwrite replaces one)")
+    p.add_argument("--layout", default="auto", choices=["auto", *LAYOUTS], help="keypoint layout (auto)")
+    p.add_argument("--person", default="all", choices=["all", "subject"],
+                   help="all: everyone, grouped per view as detected; subject: one person per frame")
+    p.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
+    p.add_argument("--frames", type=int, default=None, help="convert only the first N frames")
+    p.add_argument("--min-confidence", type=float, default=0.0, help="drop keypoints below it [0, 1)")
+    p.add_argument("--calibration", default=None, help="calibration file inside the folder (default: "
+                                                        "the single *.toml)")
+    p.add_argument("--keypoints", default="pose", help="keypoint folder inside the folder (default pose)")
+    p.add_argument("--gt", default=None, help="a ground-truth file (gt.npz) to include (default: the "
+                                              "folder's gt.npz, when there is one)")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
+    args = p.parse_args(argv)
+    out = convert_pose2sim(args.recording, args.out, person=args.person, overwrite=args.overwrite,
+                           layout=args.layout, fps=args.fps, frames=args.frames,
+                           min_confidence=args.min_confidence, calibration=args.calibration,
+                           keypoints=args.keypoints, gt=args.gt)
+    from mocap.data.sequence_io import load_sequence
+
+    seq = load_sequence(out, images=False)
+    det = seq.detections
+    people = int(det.person.max()) + 1 if det is not None and det.person is not None and len(det) else 0
+    print(f"wrote {out}: {seq.num_frames} frames, {seq.num_views} views, {len(det) if det else 0} keypoints "
+          f"({seq.meta.get('layout')}, person={seq.meta.get('person')}, up to {people} people per view)"
+          + (", ground truth" if seq.gt is not None else ""))
+    return 0
