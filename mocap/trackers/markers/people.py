@@ -15,7 +15,10 @@ Each frame (:meth:`PeopleTracker.step`):
    between a skeleton's keypoints and the track's predicted projections, gated at the
    likelihood's gate. Each track runs its annealed search on its own skeletons only, so a
    crossing person's keypoints cannot pull a track across (identities are kept through
-   crossings); a track with no skeleton coasts on its prediction (short occlusions).
+   crossings); a track with no skeleton coasts on its prediction (short occlusions). A track
+   coming back after missed frames, or assigned skeletons in fewer views than the frame
+   before, takes them only when they triangulate within ``options.radius`` m of its
+   prediction (a newcomer where someone just left is not taken for them).
 2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
    frames it coasted after its last skeleton are dropped from its estimates.
 3. Births: the skeletons no track took are associated across views as at the start-up
@@ -49,14 +52,16 @@ from mocap.trackers.markers.tracker import MarkerAPFTracker
 @dataclass
 class Track:
     """One person: ``born`` the frame of its first estimate, ``last_seen`` the last frame with a
-    skeleton assigned, ``ended`` once it has been missed for more than ``max_missed`` frames;
-    ``estimates``: {frame: estimate} (no entries after ``last_seen`` once ended)."""
+    skeleton assigned, ``views`` the views it was last assigned skeletons in, ``ended`` once it
+    has been missed for more than ``max_missed`` frames; ``estimates``: {frame: estimate} (no
+    entries after ``last_seen`` once ended)."""
 
     id: int
     tracker: MarkerAPFTracker
     born: int = 0
     last_seen: int = 0
     missed: int = 0
+    views: int = 0
     ended: bool = False
     estimates: dict[int, Estimate] = field(default_factory=dict)
 
@@ -214,9 +219,13 @@ class PeopleTracker:
         used: list[set[int]] = [set() for _ in (sk.xy if sk is not None else ())]
         out = {}
         for t, mine, tk in zip(live, rows, taken, strict=True):
-            if mine.any() and t.missed and not self._same_person(t, _only(det, mine)):
-                mine = np.zeros_like(mine)                  # someone else where a lost track coasts
+            # back after missed frames, or seen in fewer views than before: someone else may be
+            # standing where the track coasts (a newcomer next to where a person left)
+            if mine.any() and (t.missed or len(tk) < t.views) and not self._same_person(t, _only(det, mine)):
+                mine = np.zeros_like(mine)
                 tk = []
+            if tk:
+                t.views = len(tk)
             for c, j in tk:
                 used[c].add(j)
             if mine.any():
