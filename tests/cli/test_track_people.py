@@ -11,6 +11,7 @@ import pytest
 
 from mocap.export.motion import MotionFileError, load_motion
 from mocap.export.people_motion import load_people_motion
+from mocap.recording.reader import read_recording
 
 REPO = Path(__file__).resolve().parents[2]
 FAST = ["tracker.particles=20", "tracker.layers=3", "tracker.init.particles=60", "tracker.init.passes=2",
@@ -45,7 +46,9 @@ def test_the_crowd_is_tracked_person_by_person(tmp_path):
     assert np.isnan(a["joints"][10:, p]).all() and np.isfinite(a["joints"][:10, p]).all()
     with pytest.raises(MotionFileError, match="holds several people"):
         load_motion(tmp_path)
-    assert (tmp_path / "recording.rrd").stat().st_size > 0 and (tmp_path / "manifest.json").is_file()
+    assert (tmp_path / "manifest.json").is_file()
+    entities = read_recording(tmp_path / "recording.rrd")["entities"]
+    assert {f"/world/people/{i}/skeleton" for i in m["people"]} <= entities     # one entity (colour) each
 
 
 @pytest.mark.slow           # ~10 s each on a loaded machine: Hydra in a subprocess
