@@ -8,9 +8,9 @@ person), then the run folder's files as a single-person run writes them
   :mod:`mocap.export.people_motion`);
 - ``metrics.json``: ``people`` (track ids), ``births`` / ``deaths`` ({frame: ids}: first and
   last frame with an estimate), ``ended_at`` ({frame: ids}: when the tracker ended them),
-  ``people_per_frame``, speed (``sec_per_frame``, ``frames_per_second``,
-  ``frames_per_second_by_people``: {people live: fps} over the frames without a new
-  person's start-up, ``start_up_seconds``); with
+  ``people_per_frame``, ``reprojection_px_per_person`` (median landmark reprojection error),
+  speed (``sec_per_frame``, ``frames_per_second``, ``frames_per_second_by_people``: {people
+  live: fps} over the frames without a new person's start-up, ``start_up_seconds``); with
   several-people ground truth (:mod:`mocap.data.people_truth`) also ``per_person`` (MPJPE,
   PCP, switches, frames from appearance to tracked), ``identity_switches``, ``assignment``,
   ``pcp_min`` and ``mpjpe_mm`` (:func:`mocap.eval.people_metrics.people_run_metrics`);
@@ -108,6 +108,11 @@ def track_people(out_dir, config, body, seq, tracker, F, sink, recording, seed, 
         steady = (live[1:] > 0) & ~np.isin(np.arange(1, F), [int(f) for f in tracker.births])
         by_people = {str(int(n)): float(1.0 / steps[steady & (live[1:] == n)].mean())
                      for n in np.unique(live[1:][steady]) if steps[steady & (live[1:] == n)].mean() > 0}
+        if "reprojection_px" in arrays:           # without ground truth: how well each person fits
+            with np.errstate(all="ignore"):
+                med = [np.nanmedian(col) if np.isfinite(col).any() else float("nan")
+                       for col in arrays["reprojection_px"].T]
+            metrics["reprojection_px_per_person"] = {str(i): float(v) for i, v in zip(ids, med, strict=True)}
         metrics.update(
             ended_at={str(f): ids_ for f, ids_ in sorted(tracker.deaths.items())},
             people_per_frame=[int(n) for n in live],
