@@ -110,3 +110,18 @@ def test_people_settings_are_checked_with_one_line_errors():
     assert "\n" not in str(err.value)
     s = preset_settings("marker_people", {"people": {"max_missed": 4}, "particles": 50})
     assert s.people.max_missed == 4 and s.people.confirm_frames == 3 and s.particles == 50
+
+
+def test_a_short_occlusion_keeps_the_identity_and_makes_no_new_track(body):
+    F = 10
+    present = np.ones((2, F), bool)
+    present[1, 4:7] = False                    # person 1 unseen in every view for 3 frames
+    seq, truth = scene(body, [((-0.8, 0.0), (-0.5, 0.0), 0.0), ((0.9, 0.6), (0.6, 0.6), np.pi)], present)
+    tracker = run(body, seq, F)
+    assert len(tracker.tracks) == 2 and not tracker.deaths
+    est, ids = track_joints(body, tracker, F)
+    scores = people_scores(est, truth, [])
+    back = scores["people"][1]
+    assert scores["switches"] == 0 and back["tracked_frames"] == F - 3 and back["mpjpe_mm"] < 60
+    occluded = tracker.tracks[ids.index(scores["assignment"][1])]
+    assert occluded.missed == 0 and sorted(occluded.estimates) == list(range(F))     # it coasted
