@@ -47,7 +47,7 @@ def test_the_crowd_is_tracked_person_by_person(tmp_path):
     with pytest.raises(MotionFileError, match="holds several people"):
         load_motion(tmp_path)
     assert (tmp_path / "manifest.json").is_file()
-    entities = read_recording(tmp_path / "recording.rrd")["entities"]
+    entities = set(read_recording(tmp_path / "recording.rrd")["entities"])
     assert {f"/world/people/{i}/skeleton" for i in m["people"]} <= entities     # one entity (colour) each
 
 
