@@ -8,7 +8,8 @@ frames). For tests and figures of the multi-person start-up and tracking.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -16,26 +17,31 @@ from mocap.body.catalogue import make_landmark_set
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig, project
 from mocap.data.sequence import Detections
+from mocap.data.sequence import Sequence as Sequence_
 
 
 def crowd_detections(body: BodyModel, rig: Rig, chis: np.ndarray, alphas: np.ndarray,
                      labels: Sequence[str], noise_px: float = 1.0, seed: int = 0,
-                     confidence: float = 0.8) -> tuple[Detections, np.ndarray]:
+                     confidence: float = 0.8,
+                     present: np.ndarray | None = None) -> tuple[Detections, np.ndarray]:
     """chis: (N, F, D) poses of N people over F frames; alphas: (N, K) their shapes; labels:
-    keypoint names of the landmark catalogue. Returns the detections (every keypoint in
+    keypoint names of the landmark catalogue; present: (N, F) bool, the frames each person is
+    in the scene (None: all). Returns the detections (every keypoint of a present person in
     front of a camera and inside its image; pixel noise ``noise_px``) and the true
-    keypoints (N, F, L, 3) world metres."""
+    keypoints (N, F, L, 3) world metres (NaN where absent)."""
     rng = np.random.default_rng(seed)
     lms = make_landmark_set(body, list(labels))
     chis = np.asarray(chis, np.float64)
     N, F, _ = chis.shape
     pts = np.stack([lms.positions(body.shaped(alphas[n]), chis[n]).astype(np.float64) for n in range(N)])
+    if present is not None:
+        pts[~np.asarray(present, bool)] = np.nan
     rows = []
     sizes = np.asarray(rig.sizes, np.float64)                          # (C, 2) width, height
     for f in range(F):
         for c in range(len(rig)):
             order = rng.permutation(N)                                 # the detector's own order
-            for slot, n in enumerate(order):
+            for slot, n in enumerate(o for o in order if np.isfinite(pts[o, f, 0, 0])):
                 px, depth = project(rig[c], pts[n, f], return_depth=True)
                 px = px + rng.normal(0.0, noise_px, px.shape)
                 ok = (depth > 0.1) & np.all((px >= 0) & (px < sizes[c]), axis=1)
@@ -86,3 +92,75 @@ def crossing_scene(body: BodyModel, frames: int, people: int = 3, gap: float = 0
                                   action="gestures"))
     alphas = np.random.default_rng(seed).normal(0, 0.8, (len(chis), body.num_shape))
     return np.stack(chis), alphas
+
+
+#: the crowd's cameras: 5 views on a 4.5 m ring, 640x480, wide enough for a 3 m wide scene
+CROWD_RIG = {"_target_": "mocap.cameras.rigs.ring_rig", "num_cameras": 5, "radius": 4.5, "height": 2.0,
+             "width": 640, "image_height": 480, "fov_deg": 60.0, "look_at": [0.0, 0.0, 0.9],
+             "start_deg": 18.0}
+
+
+@dataclass(frozen=True)
+class Crowd:
+    """A scene of several people: chis (N, F, D), alphas (N, K), present (N, F) bool, and the
+    story: ``crossing`` (two ids crossing at ``crossing_frame``), ``entering`` {id: first frame},
+    ``leaving`` {id: last frame}."""
+
+    chis: np.ndarray
+    alphas: np.ndarray
+    present: np.ndarray
+    crossing: tuple[int, int]
+    crossing_frame: int
+    entering: dict[int, int]
+    leaving: dict[int, int]
+
+
+def crowd_scene(body: BodyModel, frames: int = 80, seed: int = 0, gap: float = 0.3) -> Crowd:
+    """Five people, at most four at once: 0 and 1 walk towards each other on lines ``gap``
+    m apart and cross half way; 2 walks off and leaves at 45 % of the frames; 3 enters at 15 %
+    and 4 at 50 % (they appear mid-stride, as through a door). Shapes differ per person."""
+    if frames < 20:
+        raise ValueError(f"crowd frames = {frames} is too short (>= 20: people enter at 15 % and 50 %)")
+    F = frames
+    walks = [((-1.3, -gap / 2), (1.3, -gap / 2), 0.0), ((1.3, gap / 2), (-1.3, gap / 2), np.pi),
+             ((0.2, -0.9), (1.6, -1.5), -0.4), ((-1.6, 1.1), (0.9, 1.1), 0.0),
+             ((1.5, -0.8), (-0.5, -1.0), np.pi)]
+    chis = np.stack([straight_walk(body, F, a, b, yaw, seed + n) for n, (a, b, yaw) in enumerate(walks)])
+    alphas = np.random.default_rng(seed).normal(0, 0.8, (len(walks), body.num_shape))
+    present = np.ones((len(walks), F), bool)
+    leave, enter3, enter4 = int(0.45 * F), int(0.15 * F), int(0.5 * F)
+    present[2, leave + 1:] = False
+    present[3, :enter3] = False
+    present[4, :enter4] = False
+    return Crowd(chis, alphas, present, (0, 1), F // 2, {3: enter3, 4: enter4}, {2: leave})
+
+
+def crowd_sequence(*, body: BodyModel, frames: int = 80, seed: int = 0, noise_px: float = 1.0,
+                   gap: float = 0.3, cameras: str | Mapping | None = None, layout: str = "BODY_25B",
+                   name: str = "crowd") -> Sequence_:
+    """The synthetic crowd (:func:`crowd_scene`) as a keypoint detector sees it: ``layout``'s
+    keypoints (:data:`mocap.data.openpose.LAYOUTS`) grouped per person, ``noise_px`` pixel
+    noise, in ``cameras`` (None: :data:`CROWD_RIG`, 5 views). The sequence has no single-person
+    ground truth; its several-people truth (mocap's joints per person, NaN where absent) is
+    ``seq.meta["people_truth"]`` (:class:`mocap.data.people_truth.PeopleTruth`), with the
+    scene's story under ``seq.meta["crowd"]``."""
+    from mocap.cameras import rig_from_config
+    from mocap.data.openpose import LAYOUTS
+    from mocap.data.people_truth import KEY, PeopleTruth
+
+    if layout not in LAYOUTS:
+        raise ValueError(f"data.layout = {layout!r} is not a keypoint layout (allowed: {', '.join(LAYOUTS)})")
+    if noise_px < 0:
+        raise ValueError(f"data.noise_px = {noise_px!r} is out of range (>= 0 px)")
+    rig = rig_from_config(CROWD_RIG if cameras is None else cameras)
+    crowd = crowd_scene(body, frames, seed, gap)
+    labels = [n for n in LAYOUTS[layout] if n is not None]
+    det, _ = crowd_detections(body, rig, crowd.chis, crowd.alphas, labels, noise_px=noise_px, seed=seed,
+                              present=crowd.present)
+    joints = np.stack([body.shaped(a).pose(c).joints for c, a in zip(crowd.chis, crowd.alphas, strict=True)])
+    joints = np.where(crowd.present[..., None, None], joints, np.nan).transpose(1, 0, 2, 3)     # (F, N, J, 3)
+    story = {"crossing": list(crowd.crossing), "crossing_frame": crowd.crossing_frame,
+             "entering": {str(k): v for k, v in crowd.entering.items()},
+             "leaving": {str(k): v for k, v in crowd.leaving.items()}}
+    return Sequence_(name=name, rig=rig, fps=25.0, detections=det,
+                     meta={KEY: PeopleTruth(joints, body.joint_names), "crowd": story})

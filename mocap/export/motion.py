@@ -262,6 +262,9 @@ def load_motion(path: str | Path) -> Motion:
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
         raise MotionFileError(f"{path}: not a readable .npz ({exc})") from exc
     with z:
+        if "format" in z and str(z["format"]) == "mocap-people-v1":
+            raise MotionFileError(f"{path}: holds several people (format 'mocap-people-v1'): read it with "
+                                  "mocap.export.people_motion.load_people_motion")
         missing = [k for k in REQUIRED if k not in z]
         if missing:
             raise MotionFileError(f"{path}: missing field(s) {', '.join(missing)}")

@@ -34,6 +34,14 @@ Per-frame scalars, texts, points, strips and mesh positions are gathered and sen
 end; style (colours, radii, labels) is logged once, static. The file is written to
 ``<path>.part`` and renamed when the run finishes; a failed run leaves ``recording.failed.rrd``
 for inspection and never a file that looks complete.
+
+A several-people run (``tracker=marker_people``, :meth:`RerunSink.people_frame`) logs, one
+colour per person id (:func:`person_color`):
+
+    world/people/<id>/skeleton|landmarks    each person's bones and fitted keypoints
+    world/people_truth/<n>                  ground-truth skeletons (when the data has them)
+    views/<view>/people/<id>                each person's keypoints reprojected
+    plots/people/live, plots/timing/step    people tracked per frame, step time
 """
 
 from __future__ import annotations
@@ -88,6 +96,16 @@ def blueprint(view_names: list[str]) -> rrb.Blueprint:
         ),
         collapse_panels=True,
     )
+
+
+#: one colour per person id (cycled)
+PEOPLE_RGB = ((230, 25, 75), (60, 180, 75), (0, 130, 200), (245, 130, 48), (145, 30, 180), (70, 240, 240),
+              (240, 50, 230), (210, 245, 60), (250, 190, 212), (0, 128, 128), (170, 110, 40), (128, 0, 0))
+
+
+def person_color(person_id: int) -> tuple[int, int, int]:
+    """The recording's colour of person ``person_id``."""
+    return PEOPLE_RGB[int(person_id) % len(PEOPLE_RGB)]
 
 
 def body_colors(body: BodyModel) -> np.ndarray:
@@ -225,6 +243,49 @@ class RerunSink:
                 self.rec.log(f"world/particles/{name}", rr.Points3D.from_fields(radii=0.006), static=True)
             pts = shaped.joints(x).reshape(-1, 3).astype(np.float32)
             self.cols.add(f"world/particles/{name}", rr.Points3D, f, positions=pts)
+
+    def people_frame(self, frame: Frame, people: dict, truth: np.ndarray | None, seconds: float) -> None:
+        """One frame of several people: ``people`` {id: (estimate, joints (J, 3))} of the live
+        tracks; truth: (P_gt, J, 3) joints (NaN: absent) or None (see the module docstring)."""
+        rec, f = self.rec, frame.index
+        rec.set_time("frame", sequence=f)
+        rec.log("plots/timing/step", rr.Scalars(seconds))
+        rec.log("plots/people/live", rr.Scalars(len(people)))
+        gone = getattr(self, "_people_live", set()) - set(people)
+        for pid in gone:                    # ended: nothing of theirs stays on screen
+            rec.log(f"world/people/{pid}", rr.Clear(recursive=True))
+            for name in self.seq.rig.names:
+                rec.log(f"views/{name}/people/{pid}", rr.Clear(recursive=True))
+        self._people_live = set(people)
+        if f % self.settings.every:
+            return
+        parents = self.body.parents
+        bones = lambda J: [np.stack([J[parents[j]], J[j]]) for j in range(1, len(parents))]  # noqa: E731
+        for pid, (est, joints) in people.items():
+            color = person_color(pid)
+            rec.log(f"world/people/{pid}/skeleton",
+                    rr.LineStrips3D(bones(joints), colors=[color], radii=0.012))
+            lm = est.diagnostics.landmarks
+            if lm is None:
+                continue
+            rec.log(f"world/people/{pid}/landmarks", rr.Points3D(lm.points, radii=0.02, colors=[color]))
+            px, depth = project(self.rig_small, np.asarray(lm.points, np.float64), return_depth=True)
+            for c, name in enumerate(self.seq.rig.names):
+                rec.log(f"views/{name}/people/{pid}",
+                        rr.Points2D(px[c][depth[c] > 0], radii=2.0, colors=[color]))
+        if truth is not None:
+            for g, J in enumerate(truth):
+                if np.isfinite(J).all():
+                    rec.log(f"world/people_truth/{g}", rr.LineStrips3D(bones(J), colors=[(200, 200, 200)],
+                                                                        radii=0.006))
+                else:
+                    rec.log(f"world/people_truth/{g}", rr.Clear(recursive=True))
+        if frame.detections is not None and len(frame.detections):
+            h, w = self.size
+            det = frame.detections
+            for c, name in enumerate(self.seq.rig.names):
+                xy = (det.xy[det.view == c] + 0.5) * (w / self.seq.rig.sizes[c][0]) - 0.5
+                rec.log(f"views/{name}/detections", rr.Points2D(xy, radii=1.0, colors=[150, 150, 150]))
 
     def _shaped(self, alpha):
         if self.shaped is None or not np.array_equal(self.shaped.alpha, alpha):

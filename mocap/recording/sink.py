@@ -33,6 +33,8 @@ class RunSink(Protocol):
               vertices: np.ndarray, truth_joints: np.ndarray | None,
               error_mm: float | None, seconds: float) -> None: ...
 
+    def people_frame(self, frame: Frame, people: dict, truth: np.ndarray | None, seconds: float) -> None: ...
+
     def finish(self, metrics: dict | None, failed: bool = False) -> None: ...
 
 
@@ -45,6 +47,9 @@ class NullSink:
         pass
 
     def frame(self, frame, estimate, joints, vertices, truth_joints, error_mm, seconds) -> None:
+        pass
+
+    def people_frame(self, frame, people, truth, seconds) -> None:
         pass
 
     def finish(self, metrics: dict | None, failed: bool = False) -> None:

@@ -194,6 +194,12 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
         raise
     for note in set_aside(out_dir):     # nothing of an earlier attempt may describe this run
         print(note, file=sys.stderr)
+    if getattr(prepared[2], "several_people", False):       # marker_people: mocap/run_folder/people.py
+        from mocap.run_folder.people import track_people
+
+        body, seq, tracker, *_, F = prepared
+        return track_people(out_dir, config, body, seq, tracker, F, sink, recording, seed, threads, source,
+                            overrides)
     return _track(out_dir, config, prepared, sink, recording, seed, threads, source, extra, overrides)
 
 
@@ -212,6 +218,11 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
                            keep_particles=keep_particles)
     if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work
         tracker.check_sequence(seq)
+    if getattr(tracker, "several_people", False):
+        from mocap.run_folder.people import check_people_run
+
+        check_people_run(tracker, mode, init_cfg, wrap)
+        return body, seq, tracker, tracker, None, None, None, {}, seq.num_frames if frames is None else frames
     # ground truth this body cannot be scored against fails here, naming the joints, not after
     # the initialisation and tracking
     scorer = NameScorer(body, seq.gt.person(0)) if seq.gt is not None else None

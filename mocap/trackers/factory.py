@@ -93,6 +93,24 @@ def build_marker_tracker(body: BodyModel, rig: Rig, rng: np.random.Generator, se
     return MarkerAPFTracker(body, rig, settings, rng, name=name)
 
 
+def build_marker_people_tracker(body: BodyModel, rig: Rig, rng: np.random.Generator, settings,
+                                name: str = "marker_people"):
+    """Several people (``marker_people``, :class:`~mocap.trackers.markers.people.PeopleTracker`;
+    settings: :class:`~mocap.trackers.markers.settings.MarkerPeopleSettings`): one marker
+    tracker per person, each with the marker settings and its own generator spawned from
+    ``rng`` (in the order the people are found), keeping no particles."""
+    from dataclasses import replace
+
+    from mocap.trackers.markers.people import PeopleTracker
+    from mocap.trackers.markers.tracker import MarkerAPFTracker
+
+    per_person = replace(settings, keep_particles=False)
+    people = PeopleTracker(lambda: MarkerAPFTracker(body, rig, per_person, rng.spawn(1)[0], name=name),
+                           settings.people, name=name)
+    people.tracker_settings = settings
+    return people
+
+
 def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "apf",
                      **keys) -> APFTracker:
     """:func:`build_apf_tracker` with :class:`APFTrackerSettings` from ``keys``."""
@@ -118,3 +136,13 @@ def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, 
     from mocap.trackers.markers.settings import MarkerSettings
 
     return build_marker_tracker(body, rig, rng, settings_from_mapping(MarkerSettings, keys), name)
+
+
+def make_marker_people_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator,
+                               name: str = "marker_people", **keys):
+    """:func:`build_marker_people_tracker` with
+    :class:`~mocap.trackers.markers.settings.MarkerPeopleSettings` from ``keys``."""
+    from mocap.trackers.markers.settings import MarkerPeopleSettings
+
+    settings = settings_from_mapping(MarkerPeopleSettings, keys)
+    return build_marker_people_tracker(body, rig, rng, settings, name)

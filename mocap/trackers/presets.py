@@ -16,7 +16,7 @@ from typing import Any
 
 from mocap.settings import with_overrides
 from mocap.trackers import factory
-from mocap.trackers.markers.settings import MarkerSettings
+from mocap.trackers.markers.settings import MarkerPeopleSettings, MarkerSettings
 from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, LocalSettings
 
 
@@ -30,7 +30,8 @@ class Preset:
 
 #: each tracker config's settings dataclass, whose defaults are the config's defaults
 SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSettings,
-                                     "hybrid": HybridSettings, "marker_apf": MarkerSettings}
+                                     "hybrid": HybridSettings, "marker_apf": MarkerSettings,
+                                     "marker_people": MarkerPeopleSettings}
 
 _APF_25X10 = replace(APFTrackerSettings(), particles=25, layers=10)
 _APF_PRIOR = replace(_APF_25X10, energy=replace(_APF_25X10.energy, prior=1.0))
@@ -68,6 +69,7 @@ PRESETS: dict[str, Preset] = {
                                                                    prior=_real(_HYBRID_PRIOR.apf.prior)))),
     "hybrid_kp": Preset(factory.build_hybrid_tracker, _HYBRID_KP),
     "marker_apf": Preset(factory.build_marker_tracker, MarkerSettings()),
+    "marker_people": Preset(factory.build_marker_people_tracker, MarkerPeopleSettings()),
 }
 
 

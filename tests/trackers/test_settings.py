@@ -20,7 +20,7 @@ from mocap.cameras import ring_rig
 from mocap.energy.prior import default_prior_path
 from mocap.settings import settings_from_mapping, settings_to_mapping, with_overrides
 from mocap.trackers import factory
-from mocap.trackers.markers.settings import MarkerInit, MarkerSettings
+from mocap.trackers.markers.settings import MarkerInit, MarkerPeopleSettings, MarkerSettings
 from mocap.trackers.presets import PRESETS, SETTINGS_CLASSES, make_tracker, preset_settings
 from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, LocalSettings, PriorSettings
 from mocap_cli.conf_schema import register_configs
@@ -129,7 +129,9 @@ def test_every_key_is_overridable_without_plus(name, body, rig):
              "hybrid": ["tracker.apf.particles=7", "tracker.apf.init_std=[0.01,0.02,0.05]",
                         "tracker.local.shape.every=0", "tracker.apf.prior.prior_source=procedural"],
              "marker_apf": ["tracker.layers=3", "tracker.init.particles=50", "tracker.refine.gate_px=5.0",
-                            "tracker.offsets.frames=2"]}
+                            "tracker.offsets.frames=2"],
+             "marker_people": ["tracker.layers=3", "tracker.init.particles=50",
+                               "tracker.people.confirm_frames=5", "tracker.people.radius=0.4"]}
     family = {"apf_prior": "apf", "apf_prior_real": "apf", "apf_25x10": "apf",
               "hybrid_prior": "hybrid", "hybrid_prior_real": "hybrid", "hybrid_kp": "hybrid"}.get(name, name)
     cfg = compose_tracker(name, picks[family])
@@ -158,7 +160,8 @@ def test_presets_are_the_settings_with_their_differences():
     assert dataclasses.replace(prior, energy=x25.energy) == x25 and prior.energy.prior == 1.0
 
 
-@pytest.mark.parametrize("cls", [APFTrackerSettings, LocalSettings, HybridSettings, MarkerSettings])
+@pytest.mark.parametrize("cls", [APFTrackerSettings, LocalSettings, HybridSettings, MarkerSettings,
+                                 MarkerPeopleSettings])
 def test_settings_round_trip_through_a_plain_tree(cls):
     tree = settings_to_mapping(cls())
     assert yaml.safe_load(yaml.safe_dump(tree)) == tree            # plain values only

@@ -1,20 +1,34 @@
-"""Several people with the marker tracker: one :class:`MarkerAPFTracker` per person, with
-identities kept across frames.
+"""Several people with the marker tracker (``marker_people``): one :class:`MarkerAPFTracker`
+per person, identities kept across frames, people entering and leaving picked up.
 
 Start-up (:meth:`PeopleTracker.start`): the people of the first frame are associated across
 views by whole-skeleton epipolar consistency (:mod:`mocap.trackers.markers.associate`); each
-person seen in ``min_views`` or more views gets a track (id 0, 1, ... in the association's
-order: most views first), initialised by the tracker's own start-up on that person's
-detections. ``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id, or a
-point (x, y, z) world metres (the person whose triangulated keypoints lie nearest).
+person seen in ``options.min_views`` or more views gets a track (id 0, 1, ... in the
+association's order: most views first), initialised by the tracker's own start-up on that
+person's detections. ``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id,
+or a point (x, y, z) world metres (the person whose triangulated keypoints lie nearest).
 
-Each frame (:meth:`PeopleTracker.step`): every track predicts its landmarks; in each view
-the detector's skeletons are assigned to tracks by the Hungarian method on the median pixel
-distance between a skeleton's keypoints and the track's predicted projections (gated at the
-likelihood's gate); each track then runs its annealed search on the skeletons assigned to it
-only, so a crossing person's keypoints cannot pull a track across. A track without any
-assigned skeleton for ``max_missed`` frames ends (the person left). People entering are not
-picked up (see the issue note).
+Each frame (:meth:`PeopleTracker.step`):
+
+1. Assignment: every live track predicts its landmarks; in each view the detector's
+   skeletons are assigned to tracks by the Hungarian method on the median pixel distance
+   between a skeleton's keypoints and the track's predicted projections, gated at the
+   likelihood's gate. Each track runs its annealed search on its own skeletons only, so a
+   crossing person's keypoints cannot pull a track across (identities are kept through
+   crossings); a track with no skeleton coasts on its prediction (short occlusions). A track
+   coming back after missed frames, or assigned skeletons in fewer views than the frame
+   before, takes them only when they triangulate within ``options.radius`` m of its
+   prediction (a newcomer where someone just left is not taken for them).
+2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
+   frames it coasted after its last skeleton are dropped from its estimates.
+3. Births: the skeletons no track took are associated across views as at the start-up
+   (``options.min_views``); each such person, triangulated, is a candidate unless it lies
+   within ``options.radius`` m of a live track (its median keypoint against the track's
+   median landmark). A candidate seen in ``options.confirm_frames`` consecutive frames, each
+   within ``radius`` of the frame before, is confirmed: a new track (the next id) initialised
+   by the marker tracker's own start-up on that frame's detections of the person.
+
+Ids are never reused. ``births`` and ``deaths`` record, per frame, the ids born and ended.
 """
 
 from __future__ import annotations
@@ -26,19 +40,40 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from mocap.data.sequence import Detections
-from mocap.energy.markers import pinhole_project
+from mocap.energy.markers import arrange_detections, pinhole_project
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
+from mocap.trackers.diagnostics import StepDiagnostics
+from mocap.trackers.markers.associate import Skeletons, associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.settings import PeopleOptions
+from mocap.trackers.markers.startup import triangulate_candidates
 from mocap.trackers.markers.tracker import MarkerAPFTracker
 
 
 @dataclass
 class Track:
+    """One person: ``born`` the frame of its first estimate, ``last_seen`` the last frame with a
+    skeleton assigned, ``views`` the views it was last assigned skeletons in, ``ended`` once it
+    has been missed for more than ``max_missed`` frames; ``estimates``: {frame: estimate} (no
+    entries after ``last_seen`` once ended)."""
+
     id: int
     tracker: MarkerAPFTracker
+    born: int = 0
+    last_seen: int = 0
     missed: int = 0
+    views: int = 0
     ended: bool = False
     estimates: dict[int, Estimate] = field(default_factory=dict)
+
+
+@dataclass
+class Candidate:
+    """A person no track explains: ``centre`` (3,) median triangulated keypoint world m,
+    ``frames`` consecutive frames seen, ``detections`` of the latest frame."""
+
+    centre: np.ndarray
+    frames: int
+    detections: Detections
 
 
 def _only(det: Detections, keep: np.ndarray) -> Detections:
@@ -47,37 +82,68 @@ def _only(det: Detections, keep: np.ndarray) -> Detections:
 
 
 class PeopleTracker:
-    """make_tracker: () -> a fresh MarkerAPFTracker (same body, rig, settings; own rng)."""
+    """make_tracker: () -> a fresh MarkerAPFTracker (same body, rig, settings; own rng);
+    options: :class:`~mocap.trackers.markers.settings.PeopleOptions`. See the module docstring."""
 
-    def __init__(self, make_tracker: Callable[[], MarkerAPFTracker],
-                 select: str | int | Sequence[float] = "all",
-                 min_views: int = 2, max_missed: int = 10):
-        self.make_tracker, self.select = make_tracker, select
-        self.min_views, self.max_missed = min_views, max_missed
+    several_people = True
+
+    def __init__(self, make_tracker: Callable[[], MarkerAPFTracker], options: PeopleOptions | None = None,
+                 select: str | int | Sequence[float] = "all", name: str = "marker_people"):
+        self.make_tracker, self.select, self.name = make_tracker, select, name
+        self.options = options if options is not None else PeopleOptions()
         self.tracks: list[Track] = []
+        self.candidates: list[Candidate] = []
+        self.births: dict[int, list[int]] = {}
+        self.deaths: dict[int, list[int]] = {}
+        self.start_up_flags: list[str] = []
+        self._probe: MarkerAPFTracker | None = None
+
+    # -- set-up ------------------------------------------------------------------------
+    def check_sequence(self, seq) -> None:
+        """Raise a one-line ValueError before any work when ``seq`` cannot be tracked: no
+        detections, labels the landmark set does not know, or no skeleton grouping
+        (``Detections.person``) to tell people apart."""
+        self._probe_tracker().check_sequence(seq)
+        det = seq.detections
+        if det.person is None or np.all(det.person < 0):
+            raise ValueError(f"{self.name}: sequence {seq.name!r} has no skeleton grouping "
+                             "(Detections.person): several people need the detector's per-view person "
+                             "index (for a keypoint recording: data.person=all)")
+
+    def _probe_tracker(self) -> MarkerAPFTracker:
+        if self._probe is None:
+            self._probe = self.make_tracker()
+        return self._probe
 
     def start(self, frame: Frame) -> list[Track]:
-        probe = self.make_tracker()
+        probe = self._probe_tracker()
         probe._landmarks_for(frame)
         det = frame.detections
         sk = skeletons_of(det, probe.landmarks.names, probe.rig)
         if sk is None:
             raise ValueError("several people need detections grouped into skeletons (Detections.person)")
-        people = associate_people(sk, probe.F, probe.init.association_px or probe.likelihood.gate_px,
-                                  min_views=self.min_views)
-        if not people:
-            raise ValueError(f"frame {frame.index}: no person seen consistently in {self.min_views}+ views")
-        tracks = []
-        for n, (person, _) in enumerate(people):
-            trk = self.make_tracker()
-            sub = Frame(frame.index, detections=person_detections(det, sk, person))
-            chi, alpha = trk.initial_estimate(sub)
-            trk.initialize(chi, alpha)
-            t = Track(n, trk)
-            t.estimates[frame.index] = Estimate(chi=chi, alpha=alpha, diagnostics={"initial": True})
-            tracks.append(t)
+        people = associate_people(sk, probe.F, self._association_px(), min_views=self.options.min_views)
+        tracks = [self._new_track(n, frame.index, person_detections(det, sk, person))
+                  for n, (person, _) in enumerate(people)]
         self.tracks = self._chosen(tracks)
+        self.births = {frame.index: [t.id for t in self.tracks]}
+        self.deaths = {}
+        self.candidates = []
         return self.tracks
+
+    def _association_px(self) -> float:
+        probe = self._probe_tracker()
+        return probe.init.association_px or probe.likelihood.gate_px
+
+    def _new_track(self, track_id: int, f: int, det: Detections) -> Track:
+        trk = self.make_tracker()
+        chi, alpha = trk.initial_estimate(Frame(f, detections=det))
+        trk.initialize(chi, alpha)
+        self.start_up_flags += [f"person {track_id}: {flag}" for flag in trk.start_up_flags]
+        t = Track(track_id, trk, born=f, last_seen=f)
+        t.estimates[f] = Estimate(chi=chi, alpha=np.asarray(alpha, np.float64),
+                                  diagnostics=StepDiagnostics(initial=True))
+        return t
 
     def _chosen(self, tracks: list[Track]) -> list[Track]:
         s = self.select
@@ -101,47 +167,138 @@ class PeopleTracker:
         chi = trk.history[-1] if chi is None else chi
         return trk.landmarks.positions(trk.shaped, chi[None])[0].astype(np.float64)
 
-    def assign(self, frame: Frame, live: list[Track]) -> list[np.ndarray]:
-        """Per live track, the (N,) bool rows of the frame's detections assigned to it."""
+    # -- per frame ---------------------------------------------------------------------
+    def assign(self, frame: Frame, live: list[Track],
+               sk: Skeletons | None = None) -> tuple[list[np.ndarray], list[list[tuple[int, int]]]]:
+        """Per live track, the (N,) bool rows of the frame's detections assigned to it and the
+        skeletons (view, index in ``sk``) they come from."""
         det = frame.detections
-        probe = live[0].tracker
-        names = probe.landmarks.names
-        sk = skeletons_of(det, names, probe.rig)
-        keep = [np.zeros(len(det), bool) for _ in live]
+        probe = self._probe_tracker()
+        if sk is None:
+            sk = skeletons_of(det, probe.landmarks.names, probe.rig)
         if sk is None:                                      # no grouping: everyone sees everything
-            return [np.ones(len(det), bool) for _ in live]
+            return [np.ones(len(det), bool) for _ in live], [[] for _ in live]
+        keep = [np.zeros(len(det), bool) for _ in live]
+        taken: list[list[tuple[int, int]]] = [[] for _ in live]
+        if not live:
+            return keep, taken
         pred = np.stack([self._landmarks(t, t.tracker.predict()) for t in live])     # (T, L, 3)
         u, depth = pinhole_project(probe.pinhole, pred)                             # (T, L, C, 2)
         gate = probe.likelihood.gate_px
-        for c in range(len(probe.rig)):
+        for c in range(len(sk.xy)):
             S = len(sk.xy[c])
             if not S:
                 continue
             cost = np.full((len(live), S), 1e9)
             for i in range(len(live)):
+                front = depth[i, :, c] > 0
                 for j in range(S):
-                    ok = sk.valid[c][j] & (depth[i, :, c] > 0)
+                    ok = sk.valid[c][j] & front
                     if ok.sum() >= 3:
                         cost[i, j] = np.median(np.linalg.norm(sk.xy[c][j][ok] - u[i, ok, c], axis=1))
             rows, cols = linear_sum_assignment(cost)
             for i, j in zip(rows, cols, strict=True):
                 if cost[i, j] < gate:
                     keep[i] |= (det.view == c) & (det.person == sk.ids[c][j])
-        return keep
+                    taken[i].append((c, int(j)))
+        return keep, taken
 
     def step(self, frame: Frame) -> dict[int, Estimate]:
-        """{track id: estimate} for the tracks still live."""
+        """{track id: estimate} for the tracks live in this frame (a track born here: its
+        initial estimate)."""
+        f = frame.index
+        det = frame.detections
+        probe = self._probe_tracker()
+        probe._landmarks_for(frame)
+        sk = skeletons_of(det, probe.landmarks.names, probe.rig) if det is not None and len(det) else None
         live = [t for t in self.tracks if not t.ended]
-        if not live:
-            return {}
+        if live and sk is not None:
+            rows, taken = self.assign(frame, live, sk)
+        else:
+            rows, taken = [np.zeros(0 if det is None else len(det), bool) for _ in live], [[] for _ in live]
+        used: list[set[int]] = [set() for _ in (sk.xy if sk is not None else ())]
         out = {}
-        for t, rows in zip(live, self.assign(frame, live), strict=True):
-            if not rows.any():
-                t.missed += 1
-                t.ended = t.missed > self.max_missed
+        for t, mine, tk in zip(live, rows, taken, strict=True):
+            # back after missed frames, or seen in fewer views than before: someone else may be
+            # standing where the track coasts (a newcomer next to where a person left)
+            if mine.any() and (t.missed or len(tk) < t.views) and not self._same_person(t, _only(det, mine)):
+                mine = np.zeros_like(mine)
+                tk = []
+            if tk:
+                t.views = len(tk)
+            for c, j in tk:
+                used[c].add(j)
+            if mine.any():
+                t.missed, t.last_seen = 0, f
             else:
-                t.missed = 0
-            est = t.tracker.step(Frame(frame.index, detections=_only(frame.detections, rows)))
-            t.estimates[frame.index] = est
+                t.missed += 1
+                if t.missed > self.options.max_missed:
+                    t.ended = True
+                    for g in [g for g in t.estimates if g > t.last_seen]:
+                        del t.estimates[g]
+                    self.deaths.setdefault(f, []).append(t.id)
+                    continue
+            est = t.tracker.step(Frame(f, detections=_only(det, mine)))
+            t.estimates[f] = est
             out[t.id] = est
+        if self.options.births and sk is not None:
+            for t in self._births(frame, sk, used):
+                out[t.id] = t.estimates[f]
         return out
+
+    def _centre(self, det: Detections) -> np.ndarray | None:
+        """(3,) median of one person's triangulated keypoints (None: fewer than 3 triangulated)."""
+        probe = self._probe_tracker()
+        X, _ = triangulate_candidates(probe.pinhole, arrange_detections(
+            det, probe.landmarks.names, probe.rig, probe.min_confidence), probe.likelihood.gate_px)
+        return np.nanmedian(X, axis=0) if np.isfinite(X[:, 0]).sum() >= 3 else None
+
+    def _same_person(self, t: Track, det: Detections) -> bool:
+        """A track coming back after missed frames takes skeletons only when they triangulate
+        within ``options.radius`` of where it coasted."""
+        centre = self._centre(det)
+        return centre is not None and \
+            bool(np.linalg.norm(centre - np.median(self._landmarks(t, t.tracker.predict()), axis=0))
+                 < self.options.radius)
+
+    def _births(self, frame: Frame, sk: Skeletons, used: list[set[int]]) -> list[Track]:
+        """New people among the skeletons no track took (see the module docstring)."""
+        o, probe, det = self.options, self._probe_tracker(), frame.detections
+        rest = [np.array(sorted(set(range(len(x))) - used[c]), np.int64)
+                for c, x in enumerate(sk.xy)]
+        free = Skeletons([x[r] for x, r in zip(sk.xy, rest, strict=True)],
+                         [v[r] for v, r in zip(sk.valid, rest, strict=True)],
+                         [i[r] for i, r in zip(sk.ids, rest, strict=True)])
+        if sum(len(x) > 0 for x in free.xy) < o.min_views:
+            self.candidates = []
+            return []
+        people = associate_people(free, probe.F, self._association_px(), min_views=o.min_views)
+        centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks if not t.ended]
+        seen: list[Candidate] = []
+        for person, _ in people:
+            pdet = person_detections(det, free, person)
+            centre = self._centre(pdet)
+            if centre is None:
+                continue
+            if any(np.linalg.norm(centre - c) < o.radius for c in centres):
+                continue                          # a live track's skeleton it did not take
+            before = [k for k in self.candidates if np.linalg.norm(k.centre - centre) < o.radius]
+            frames = 1 + max((k.frames for k in before), default=0)
+            seen.append(Candidate(centre, frames, pdet))
+        born = []
+        self.candidates = []
+        for k in seen:
+            if k.frames >= o.confirm_frames:
+                new_id = 1 + max((t.id for t in self.tracks), default=-1)
+                t = self._new_track(new_id, frame.index, k.detections)
+                self.tracks.append(t)
+                self.births.setdefault(frame.index, []).append(t.id)
+                born.append(t)
+            else:
+                self.candidates.append(k)
+        return born
+
+    # -- results -----------------------------------------------------------------------
+    def estimates_by_person(self) -> dict[int, dict[int, Estimate]]:
+        """{track id: {frame: estimate}} of every track (ended ones included)."""
+        return {t.id: dict(t.estimates) for t in self.tracks}

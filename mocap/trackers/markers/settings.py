@@ -119,3 +119,36 @@ class MarkerSettings(APFSettings):
         if isinstance(self.landmarks, str):
             return self.landmarks
         return [x if isinstance(x, str) else dict(x) for x in self.landmarks]
+
+
+@dataclass(frozen=True)
+class PeopleOptions:
+    """Several people (``marker_people``, :mod:`mocap.trackers.markers.people`): ``min_views``:
+    views a person must be associated in (start-up and newcomers); ``confirm_frames``: a
+    newcomer (skeletons no track took, consistent across ``min_views`` views) gets a track once
+    seen in this many consecutive frames, each time within ``radius`` m (its triangulated
+    keypoints' median) of where it was the frame before and farther than ``radius`` from every
+    live track; ``max_missed``: a track with no skeleton assigned in any view for more
+    frames than this ends (the person left; the frames it coasted after its last skeleton are
+    dropped); ``births``: False tracks only the people of the first frame."""
+
+    min_views: int = 2
+    confirm_frames: int = 3
+    max_missed: int = 10
+    radius: float = 0.3
+    births: bool = True
+
+    def __post_init__(self) -> None:
+        check(self, "min_views", self.min_views >= 2, "an integer >= 2 (a person is triangulated)")
+        check(self, "confirm_frames", self.confirm_frames >= 1, "an integer >= 1")
+        check(self, "max_missed", self.max_missed >= 0, "an integer >= 0")
+        check(self, "radius", self.radius > 0, "> 0 m")
+
+
+@dataclass(frozen=True)
+class MarkerPeopleSettings(MarkerSettings):
+    """``marker_people``: one marker tracker per person, each with these marker settings
+    (:class:`MarkerSettings`; ``keep_particles`` is ignored: per-person trackers keep none),
+    and how people are found, confirmed and ended (``people``: :class:`PeopleOptions`)."""
+
+    people: PeopleOptions = PeopleOptions()

@@ -1,0 +1,127 @@
+"""``motion.npz`` of a several-people run (``tracker=marker_people``): the motion of every
+person in one file, with a person axis after the frame axis.
+
+Keys (F frames of the run, P people = tracks, ids in ``person_ids``; world metres, Z up; every
+per-frame array holds NaN (float), False (bool) where a person is not live; the arrays of
+each person are those of :mod:`mocap.export.motion`, posed at that person's shape):
+
+    format              "mocap-people-v1"
+    fps, frame_index (F,) int, timestamps (F,) seconds
+    person_ids (P,) int                 track ids (never reused; born in this order)
+    live (F, P) bool                    the person has an estimate in the frame
+    born (P,) int, last_frame (P,) int  first and last frame with an estimate
+    ended (P,) bool                     the track ended (the person left) before the last frame
+    chi (F, P, D), dof_names (D,)       pose per frame
+    alpha (F, P, K)                     shape per frame
+    joints (F, P, J, 3) float32, joint_names (J,), joint_parents (J,)
+    joint_rotations (F, P, J, 3, 3) float32, root_transform (F, P, 4, 4)
+    rest_joints (P, J, 3)               rest joints of each person's final shape
+    landmarks (F, P, L, 3) float32, landmark_names (L,)
+    tracker_landmarks (F, P, L', 3) float32, tracker_landmark_names (L',)   the fitted keypoints
+    energy (F, P), reprojection_px (F, P), initial (F, P) bool, lost (F, P) bool
+    seconds (F,)                        step time of the frame (all people)
+    body, model_hash, tracker, data, run_id, seed     provenance
+
+:func:`load_people_motion` reads it; :func:`mocap.export.motion.load_motion` refuses it with a
+message naming this module.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from mocap.export.motion import MotionFileError, motion_arrays
+
+FORMAT = "mocap-people-v1"
+PER_FRAME = ("chi", "alpha", "joints", "joint_rotations", "root_transform", "landmarks", "tracker_landmarks",
+             "energy", "reprojection_px", "initial", "lost")
+STATIC = ("dof_names", "joint_names", "joint_parents", "landmark_names", "tracker_landmark_names", "body",
+          "model_hash")
+
+
+def people_motion_arrays(body, people: Mapping[int, Mapping[int, object]], frames: int,
+                         seconds: Sequence[float], fps: float, info: Mapping | None = None) -> dict:
+    """The arrays of a several-people motion.npz: ``people`` {track id: {frame: estimate}},
+    ``frames`` of the run, step ``seconds`` per frame."""
+    ids = sorted(people)
+    F, P = int(frames), len(ids)
+    out: dict = {"format": np.array(FORMAT), "fps": np.float64(fps), "frame_index": np.arange(F),
+                 "timestamps": np.arange(F) / float(fps), "person_ids": np.array(ids, np.int64),
+                 "live": np.zeros((F, P), bool), "born": np.full(P, -1, np.int64),
+                 "last_frame": np.full(P, -1, np.int64), "seconds": np.asarray(seconds, np.float64)[:F]}
+    rest = []
+    for p, pid in enumerate(ids):
+        est = people[pid]
+        fr = np.array(sorted(f for f in est if f < F), np.int64)
+        if not len(fr):
+            rest.append(np.full((body.num_joints, 3), np.nan))
+            continue
+        a = motion_arrays(body, [est[f] for f in fr], np.zeros(len(fr)), fps, info)
+        out["live"][fr, p] = True
+        out["born"][p], out["last_frame"][p] = fr[0], fr[-1]
+        rest.append(a["rest_joints"])
+        for k in STATIC:
+            if k in a and k not in out:
+                out[k] = a[k]
+        for k in PER_FRAME:
+            if k not in a:
+                continue
+            v = a[k]
+            if k not in out:
+                fill = False if v.dtype == bool else np.nan
+                out[k] = np.full((F, P, *v.shape[1:]), fill, v.dtype)
+            if k == "tracker_landmarks" and v.shape[1:] != out[k].shape[2:]:
+                continue                        # another landmark set (cannot happen with one tracker)
+            out[k][fr, p] = v
+    out["rest_joints"] = np.stack(rest) if rest else np.zeros((0, body.num_joints, 3))
+    out["ended"] = (out["last_frame"] >= 0) & (out["last_frame"] < F - 1)
+    for key in ("tracker", "data", "run_id"):
+        out[key] = np.array(str((info or {}).get(key, "")))
+    out["seed"] = np.int64((info or {}).get("seed", -1))
+    if not P:              # nobody tracked: the names still say what the axes are
+        out.update(dof_names=np.array(body.dof_names), joint_names=np.array(body.joint_names),
+                   joint_parents=np.asarray(body.parents, np.int64),
+                   joints=np.zeros((F, 0, body.num_joints, 3), np.float32))
+    return out
+
+
+def write_people_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
+    """Write the arrays atomically (a temporary file renamed into place)."""
+    import os
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def load_people_motion(path: str | Path) -> dict[str, np.ndarray]:
+    """The arrays of a several-people motion.npz (a run directory works too), checked."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "motion.npz"
+    if not path.is_file():
+        raise MotionFileError(f"{path}: not found (runs write motion.npz when they finish)")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            a = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise MotionFileError(f"{path}: not a readable .npz ({exc})") from exc
+    if str(a.get("format", "")) != FORMAT:
+        raise MotionFileError(f"{path}: format is {str(a.get('format', ''))!r}, expected {FORMAT!r}")
+    F, P = a["live"].shape
+    for k in ("chi", "joints"):
+        if a[k].shape[:2] != (F, P):
+            raise MotionFileError(f"{path}: field '{k}' is {a[k].shape}, expected ({F}, {P}, ...)")
+    return a
