@@ -28,7 +28,7 @@ def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, 
 def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
                     views: Sequence_[int | str] | None = None,
                     silhouette_noise: Mapping | None = None, seed: int = 0,
-                    nonfinite: str = "refuse") -> Sequence:
+                    nonfinite: str = "refuse", detections: Mapping | None = None) -> Sequence:
     """A sequence folder written by ``mocap make-dataset`` (or converted data).
 
     path: the folder (a relative path is relative to the working directory).
@@ -37,12 +37,19 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
     every mask, deterministically for ``seed`` (the same seed gives the same masks).
     nonfinite: NaN / Inf in the ground truth or detections: refuse (default) or drop them
     (counted in the sequence's meta and the run's metrics.json, ``dropped_nonfinite``).
+    detections: None or ``{semantics: null}``: the folder's detections; ``{semantics: realistic}``
+    (or ``offsets_only``, plus any field of :class:`mocap.data.detector_semantics.DetectorSemantics`):
+    detections simulated from the ground-truth joints in every view with a real detector's
+    semantics, seeded by ``seed`` and the folder's name (the same seed gives the same detections;
+    a ``views`` subset sees the same detections as the full rig).
     """
     p = Path(path)
     if not p.is_dir():
         raise FileNotFoundError(f"data path not found: {p}")
     seq = load_sequence(p, images=images, nonfinite=nonfinite)
     changes: dict = {}
+    if detections and dict(detections).get("semantics") is not None:
+        seq = _simulated_detections(seq, p, detections, seed)
     if name:
         changes["name"] = str(name)
     if views is not None:
@@ -66,6 +73,22 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
     if views is not None:
         changes.setdefault("meta", dict(seq.meta))["views"] = list(changes["rig"].names)
     return replace(seq, **changes) if changes else seq
+
+
+def _simulated_detections(seq: Sequence, path: Path, options: Mapping, seed: int) -> Sequence:
+    import zlib
+
+    from mocap.data.detector_semantics import gt_keypoint_names, semantics_from, simulate
+
+    semantics = semantics_from(options)             # raises on a bad option before any work
+    if seq.gt is None:
+        raise ValueError(f"{path}: detections.semantics={dict(options)['semantics']!r} simulates detections "
+                         "from the ground-truth joints, but the folder has no gt.npz")
+    rng = np.random.default_rng([int(seed), zlib.crc32(path.resolve().name.encode()), 26])
+    sim = simulate(seq.gt.joints, gt_keypoint_names(seq.gt), seq.rig, semantics, rng)
+    meta = {**seq.meta, "detections": {**dict(options), "seed": int(seed),
+                                       "simulator": "mocap.data.detector_semantics"}}
+    return replace(seq, detections=sim.detections, meta=meta)
 
 
 def _keep_views(det: Detections, idx: list[int]) -> Detections:
