@@ -26,24 +26,39 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap.api import track
 from mocap.body import load_body
 from mocap.data.sources import folder_sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.triangulation import robust_triangulation, score_triangulation
+from mocap.trackers.init_cache import initial_estimate
 from mocap.trackers.markers.settings import MarkerSettings
+from mocap.trackers.presets import make_tracker
+from mocap.trackers.run import frame_of, track_sequence
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 #: marker_apf settings per variant (overrides of the marker_apf preset)
+OLD = {"offsets": {"frames": 0}, "refine": {"outlier_views": 0.0}, "init": {"outlier_sigma": 4.0},
+       "use_confidence": False}
+
+
+def _with(**changes) -> dict:
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in OLD.items()}
+    for k, v in changes.items():
+        out[k] = {**out.get(k, {}), **v} if isinstance(v, dict) else v
+    return out
+
+
 VARIANTS: dict[str, dict] = {
-    "default": {},
-    "no_offsets": {"offsets": {"frames": 0}},
-    "no_views": {"outlier_views": 0.0},
-    "offsets10": {"offsets": {"frames": 10}},
-    "offsets20": {"offsets": {"frames": 20}},
-    "conf": {"use_confidence": True},
-    "noconf": {"use_confidence": False, "refine": {"use_confidence": False}},
-    "old": {"offsets": {"frames": 0}, "outlier_views": 0.0},
+    "default": {},                                        # today's defaults
+    "old": OLD,                                           # the defaults before issue 26
+    "os8": _with(init={"outlier_sigma": 8.0}),
+    "os8_b6": _with(init={"outlier_sigma": 8.0, "bound_sigma": 6.0}),
+    "os8_off10": _with(init={"outlier_sigma": 8.0}, offsets={"frames": 10}),
+    "os8_off20": _with(init={"outlier_sigma": 8.0}, offsets={"frames": 20}),
+    "os8_views": _with(init={"outlier_sigma": 8.0}, refine={"outlier_views": 3.0}),
+    "os8_conf": _with(init={"outlier_sigma": 8.0}, use_confidence=True),
+    "os8_all": _with(init={"outlier_sigma": 8.0}, offsets={"frames": 10}, refine={"outlier_views": 3.0},
+                     use_confidence=True),
 }
 
 
@@ -52,6 +67,30 @@ def sequences(split: str, mismatch: bool) -> list[Path]:
     if mismatch:
         out += [p for p in sorted((DATA / "mismatch").iterdir()) if p.is_dir()]
     return [p for p in out if (p / "gt.npz").exists()]
+
+
+def calibrate(body, paths: list[Path], seeds: list[int], semantics: str) -> dict:
+    """A detector profile (keypoint type -> mean (out, forward, up) mm) from sequences with
+    ground truth: robust triangulation of the detections (8 views) against the ground-truth
+    joints, in the keypoint frames of the ground truth, median over frames, left and right
+    mirrored together, mean over sequences and seeds."""
+    from mocap.data.detector_semantics import _kind, gt_keypoint_names, keypoint_frames
+
+    per_type: dict[str, list] = {}
+    for path in paths:
+        for seed in seeds:
+            seq = folder_sequence(body=body, path=str(path), images=False, seed=seed,
+                                  detections={"semantics": semantics})
+            names = gt_keypoint_names(seq.gt)
+            gate = MarkerSettings().likelihood(seq.rig.sizes).gate_px
+            X, inl = robust_triangulation(seq.rig, seq.detections, names, seq.num_frames, gate, hold=False)
+            frames = keypoint_frames(seq.gt.joints, names)
+            local = np.einsum("fjab,fja->fjb", frames, X - seq.gt.joints)
+            med = np.nanmedian(local, axis=0)                          # (J, 3) metres
+            for j, n in enumerate(names):
+                kind, sign = _kind(n)
+                per_type.setdefault(kind, []).append(med[j] * [sign or 1.0, 1.0, 1.0])
+    return {k: tuple(round(1e3 * float(x), 1) for x in np.mean(v, axis=0)) for k, v in per_type.items()}
 
 
 def main() -> None:
@@ -65,8 +104,13 @@ def main() -> None:
     p.add_argument("--semantics", default="realistic")
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--out", default="detector_semantics.json")
+    p.add_argument("--calibrate", action="store_true", help="print a detector profile calibrated on "
+                   "the split's sequences (and --mismatch) and stop")
     args = p.parse_args()
     body = load_body("paper22")
+    if args.calibrate:
+        print(calibrate(body, sequences(args.split, args.mismatch), args.seeds, args.semantics))
+        return
     rows = []
     for path in sequences(args.split, args.mismatch):
         if args.only and path.name not in args.only:
@@ -92,8 +136,12 @@ def main() -> None:
                 print(json.dumps({k: v for k, v in rows[-1].items() if k != "per_joint_mm"}), flush=True)
                 for variant in args.variants:
                     t = time.perf_counter()
-                    res = track(seq, "marker_apf", body=body, seed=seed, init="tracker", frames=F,
-                                **VARIANTS[variant])
+                    # as mocap.api.track(seq, "marker_apf", seed=seed, init="tracker", ...)
+                    trk = make_tracker("marker_apf", body=body, rig=seq.rig,
+                                       rng=np.random.default_rng([seed, 1]), **VARIANTS[variant])
+                    trk.check_sequence(seq)                 # as mocap track: reads the detector profile
+                    chi0, alpha0, _ = initial_estimate(trk, frame_of(seq, 0))
+                    res = track_sequence(trk, seq, chi0, alpha0, F)
                     sec = (time.perf_counter() - t) / F
                     chis = np.stack([e.chi for e in res.estimates])
                     alphas = np.stack([e.alpha for e in res.estimates])

@@ -180,10 +180,16 @@ def keypoint_frames(joints: np.ndarray, names: Sequence[str]) -> np.ndarray:
 
 def configured_offsets(names: Sequence[str], semantics: DetectorSemantics) -> np.ndarray:
     """(J, 3) metres in the keypoints' frames: the configured mean offsets, "out" mirrored."""
+    return local_offsets(names, semantics.offsets_mm)
+
+
+def local_offsets(names: Sequence[str], table_mm: Mapping[str, Sequence[float]]) -> np.ndarray:
+    """(J, 3) metres in the keypoints' frames (left, forward, up) from a table keypoint type ->
+    (out, forward, up) mm ("out" mirrored for right keypoints; types not in it: zero)."""
     out = np.zeros((len(names), 3))
     for j, n in enumerate(names):
         kind, sign = _kind(n)
-        o = semantics.offsets_mm.get(kind, (0.0, 0.0, 0.0))
+        o = table_mm.get(kind, (0.0, 0.0, 0.0))
         out[j] = (o[0] * (sign if sign else 1.0), o[1], o[2])
     return out / 1e3
 

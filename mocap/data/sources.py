@@ -86,7 +86,10 @@ def _simulated_detections(seq: Sequence, path: Path, options: Mapping, seed: int
                          "from the ground-truth joints, but the folder has no gt.npz")
     rng = np.random.default_rng([int(seed), zlib.crc32(path.resolve().name.encode()), 26])
     sim = simulate(seq.gt.joints, gt_keypoint_names(seq.gt), seq.rig, semantics, rng)
-    meta = {**seq.meta, "detections": {**dict(options), "seed": int(seed),
+    # the detector profile (mocap.trackers.markers.offsets.PROFILES) calibrated for these
+    # semantics, unless the offsets were changed
+    profile = "realistic_sim" if "offsets_mm" not in dict(options) else None
+    meta = {**seq.meta, "detections": {**dict(options), "seed": int(seed), "keypoint_profile": profile,
                                        "simulator": "mocap.data.detector_semantics"}}
     return replace(seq, detections=sim.detections, meta=meta)
 
