@@ -31,14 +31,15 @@ from mocap.data.sources import folder_sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.triangulation import robust_triangulation, score_triangulation
 from mocap.trackers.init_cache import initial_estimate
+from mocap.trackers.markers.offsets import remove_profile
 from mocap.trackers.markers.settings import MarkerSettings
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 #: marker_apf settings per variant (overrides of the marker_apf preset)
-OLD = {"offsets": {"frames": 0}, "refine": {"outlier_views": 0.0}, "init": {"outlier_sigma": 4.0},
-       "use_confidence": False}
+OLD = {"offsets": {"frames": 0}, "refine": {"outlier_views": 0.0},
+       "init": {"outlier_sigma": 4.0, "bound_sigma": 3.0}, "use_confidence": False, "keypoint_profile": None}
 
 
 def _with(**changes) -> dict:
@@ -59,6 +60,14 @@ VARIANTS: dict[str, dict] = {
     "os8_conf": _with(init={"outlier_sigma": 8.0}, use_confidence=True),
     "os8_all": _with(init={"outlier_sigma": 8.0}, offsets={"frames": 10}, refine={"outlier_views": 3.0},
                      use_confidence=True),
+    # with the detector profile (keypoint_profile: auto -> realistic_sim on these detections)
+    "p_os8_b6": _with(init={"outlier_sigma": 8.0, "bound_sigma": 6.0}, keypoint_profile="auto"),
+    "p_os8_b6_off10": _with(init={"outlier_sigma": 8.0, "bound_sigma": 6.0}, keypoint_profile="auto",
+                            offsets={"frames": 10}),
+    "p_os8_b6_views": _with(init={"outlier_sigma": 8.0, "bound_sigma": 6.0}, keypoint_profile="auto",
+                            refine={"outlier_views": 3.0}),
+    "p_os8_b6_conf": _with(init={"outlier_sigma": 8.0, "bound_sigma": 6.0}, keypoint_profile="auto",
+                           use_confidence=True),
 }
 
 
@@ -101,7 +110,8 @@ def main() -> None:
     p.add_argument("--views", nargs="+", type=int, default=[4, 8], choices=[4, 8])
     p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     p.add_argument("--variants", nargs="+", default=["default"], choices=list(VARIANTS))
-    p.add_argument("--semantics", default="realistic")
+    p.add_argument("--semantics", default="realistic", help="realistic, offsets_only, or none: the "
+                   "folder's own (Canton-style) detections")
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--out", default="detector_semantics.json")
     p.add_argument("--calibrate", action="store_true", help="print a detector profile calibrated on "
@@ -119,7 +129,8 @@ def main() -> None:
             for seed in args.seeds:
                 seq = folder_sequence(body=body, path=str(path), images=False, seed=seed,
                                       views=None if nv == 8 else [0, 2, 4, 6],
-                                      detections={"semantics": args.semantics})
+                                      detections={"semantics": None if args.semantics == "none"
+                                                  else args.semantics})
                 F = min(args.frames, seq.num_frames)
                 scorer = NameScorer(body, seq.gt)
                 key = {"sequence": path.name, "views": nv, "seed": seed, "frames": F}
@@ -128,12 +139,18 @@ def main() -> None:
                 t = time.perf_counter()
                 X, inl = robust_triangulation(seq.rig, seq.detections, names, F, gate)
                 sec = (time.perf_counter() - t) / F
-                tri = score_triangulation(scorer, names, X) if F == seq.num_frames else \
-                    scorer.score({n: X[:, i] for i, n in enumerate(names)})
+                tri = score_triangulation(scorer, names, X)
                 rows.append({**key, "method": "triangulation", "mpjpe_mm": tri["mpjpe_mm"],
                              "per_joint_mm": tri["per_joint_mm"], "coverage": float((inl > 0).mean()),
                              "sec_per_frame": sec})
                 print(json.dumps({k: v for k, v in rows[-1].items() if k != "per_joint_mm"}), flush=True)
+                profile = (seq.meta.get("detections") or {}).get("keypoint_profile")
+                if profile:     # the same detector profile the tracker uses, removed frame by frame
+                    Y = np.stack([remove_profile(profile, names, x) for x in X])
+                    tri = score_triangulation(scorer, names, Y)
+                    rows.append({**key, "method": "triangulation+profile", "mpjpe_mm": tri["mpjpe_mm"],
+                                 "per_joint_mm": tri["per_joint_mm"]})
+                    print(json.dumps({k: v for k, v in rows[-1].items() if k != "per_joint_mm"}), flush=True)
                 for variant in args.variants:
                     t = time.perf_counter()
                     # as mocap.api.track(seq, "marker_apf", seed=seed, init="tracker", ...)
