@@ -28,7 +28,8 @@ def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, 
 def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
                     views: Sequence_[int | str] | None = None,
                     silhouette_noise: Mapping | None = None, seed: int = 0,
-                    nonfinite: str = "refuse", gt: str | None = None) -> Sequence:
+                    nonfinite: str = "refuse", gt: str | None = None,
+                    detections: Mapping | None = None) -> Sequence:
     """A sequence folder written by ``mocap make-dataset`` (or converted data).
 
     path: the folder (a relative path is relative to the working directory).
@@ -39,6 +40,11 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
     (counted in the sequence's meta and the run's metrics.json, ``dropped_nonfinite``).
     gt: a ground-truth file used instead of the folder's gt.npz (which is otherwise used
     whenever it is there): joints by name, :func:`mocap.data.sequence_io.load_ground_truth`.
+    detections: None or ``{semantics: null}``: the folder's detections; ``{semantics: realistic}``
+    (or ``offsets_only``, plus any field of :class:`mocap.data.detector_semantics.DetectorSemantics`):
+    detections simulated from the ground-truth joints in every view with a real detector's
+    semantics, seeded by ``seed`` and the folder's name (the same seed gives the same detections;
+    a ``views`` subset sees the same detections as the full rig).
     """
     p = Path(path)
     if not p.is_dir():
@@ -52,6 +58,8 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
                                 "name, docs/data_formats.md)")
     seq = load_sequence(p, images=images, nonfinite=nonfinite, gt=gt)
     changes: dict = {}
+    if detections and dict(detections).get("semantics") is not None:
+        seq = _simulated_detections(seq, p, detections, seed)
     if name:
         changes["name"] = str(name)
     if views is not None:
@@ -75,6 +83,25 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
     if views is not None:
         changes.setdefault("meta", dict(seq.meta))["views"] = list(changes["rig"].names)
     return replace(seq, **changes) if changes else seq
+
+
+def _simulated_detections(seq: Sequence, path: Path, options: Mapping, seed: int) -> Sequence:
+    import zlib
+
+    from mocap.data.detector_semantics import gt_keypoint_names, semantics_from, simulate
+
+    semantics = semantics_from(options)             # raises on a bad option before any work
+    if seq.gt is None:
+        raise ValueError(f"{path}: detections.semantics={dict(options)['semantics']!r} simulates detections "
+                         "from the ground-truth joints, but the folder has no gt.npz")
+    rng = np.random.default_rng([int(seed), zlib.crc32(path.resolve().name.encode()), 26])
+    sim = simulate(seq.gt.joints, gt_keypoint_names(seq.gt), seq.rig, semantics, rng)
+    # the detector profile (mocap.trackers.markers.offsets.PROFILES) calibrated for these
+    # semantics, unless the offsets were changed
+    profile = "realistic_sim" if "offsets_mm" not in dict(options) else None
+    meta = {**seq.meta, "detections": {**dict(options), "seed": int(seed), "keypoint_profile": profile,
+                                       "simulator": "mocap.data.detector_semantics"}}
+    return replace(seq, detections=sim.detections, meta=meta)
 
 
 def _keep_views(det: Detections, idx: list[int]) -> Detections:

@@ -1,9 +1,14 @@
 """Keypoint-to-landmark offsets (mocap/trackers/markers/offsets.py)."""
 
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from mocap.body.twists import se3_exp
 from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
+
+DEV = Path(__file__).resolve().parents[2] / "data" / "real_motion" / "dev"
 
 
 def test_residuals_in_the_joint_frame_recover_a_body_fixed_offset():
@@ -50,3 +55,85 @@ def test_tracker_learns_offsets_and_refines_on_synthetic_markers(body):
     chis = np.stack([e.chi for e in res.estimates])
     err = joint_errors(body.shaped(seq.gt.alpha).joints(chis), seq.gt.joints, body.joint_names)
     assert err[1:].mean() < 20.0
+
+
+def _offset_run(body, offsets_mm, frames_learned, profile=None):
+    """Mean landmark error (mm, frames 12..) of marker_apf started at the truth on a synthetic
+    walk whose detections mark the 15 HumanEva keypoints with constant offsets ``offsets_mm``
+    (mocap.data.detector_semantics, no other corruption but 1.5 px noise)."""
+    from mocap.body.catalogue import make_landmark_set
+    from mocap.cameras import rig_from_config
+    from mocap.data.detector_semantics import DetectorSemantics, simulate
+    from mocap.data.generate import make_synthetic
+    from mocap.eval.by_name import SKELETONS
+    from mocap.trackers.presets import make_tracker
+    from mocap.trackers.run import track_sequence
+
+    rig = rig_from_config("humaneva")
+    seq = make_synthetic(body, rig, motion="walk", frames=30, fps=25, seed=5, masks=False)
+    names = list(SKELETONS["humaneva15"].values())
+    lms = make_landmark_set(body, names)
+    truth = lms.positions(body.shaped(seq.gt.alpha), seq.gt.chi).astype(np.float64)
+    s = DetectorSemantics(offsets_mm=offsets_mm, offset_jitter_mm=0.0, swap_rate=0.0, foreign_limb_rate=0.0,
+                          gross_rate=0.0, false_positive_rate=0.0, detection_rate=1.0, noise_px=1.5)
+    det = simulate(truth, names, rig, s, np.random.default_rng(0)).detections
+    from dataclasses import replace
+
+    trk = make_tracker("marker_apf", body=body, rig=rig, rng=np.random.default_rng(0),
+                       offsets={"frames": frames_learned}, keypoint_profile=profile)
+    res = track_sequence(trk, replace(seq, detections=det), seq.gt.chi[0], seq.gt.alpha)
+    chis = np.stack([e.chi for e in res.estimates])
+    est = make_landmark_set(body, list(trk.landmarks.names)).positions(body.shaped(seq.gt.alpha), chis)
+    idx = [names.index(n) for n in trk.landmarks.names]
+    return 1e3 * float(np.linalg.norm(est[12:] - truth[12:, idx], axis=-1).mean())
+
+
+@pytest.mark.slow
+def test_offsets_remove_a_constant_detector_bias_and_do_not_hurt_without_one(body):
+    """Constant keypoint offsets (the realistic detector's, hips 5 cm up and out) bias the
+    tracker; offsets learned online on top of the detector's profile (its calibrated mean
+    offsets) remove most of it; learned online alone they leave the pose where it is (a pose
+    change mimics offsets shared by neighbouring keypoints: the residuals they learn from are
+    the pose's own); on unbiased detections learning them does not hurt."""
+    from mocap.data.detector_semantics import REALISTIC_OFFSETS_MM
+
+    biased_off = _offset_run(body, REALISTIC_OFFSETS_MM, 0)
+    biased_on = _offset_run(body, REALISTIC_OFFSETS_MM, 8, profile="realistic_sim")
+    assert biased_on < 0.6 * biased_off, (biased_on, biased_off)
+    assert _offset_run(body, REALISTIC_OFFSETS_MM, 8) > 0.9 * biased_off
+    plain_off, plain_on = (_offset_run(body, {}, n) for n in (0, 8))
+    assert plain_on < plain_off + 1.0, (plain_on, plain_off)
+
+
+def test_removing_a_profile_gives_back_the_joints_of_keypoints_with_its_offsets():
+    """Keypoints simulated with exactly a profile's offsets, minus the profile: the joints."""
+    from mocap.data.detector_semantics import DetectorSemantics, gt_keypoint_names, simulate
+    from mocap.data.sequence_io import load_sequence
+    from mocap.trackers.markers.offsets import PROFILES, remove_profile
+
+    seq = load_sequence(DEV / "bye_petite_woman", images=False)
+    names = gt_keypoint_names(seq.gt)
+    s = DetectorSemantics(offsets_mm=PROFILES["realistic_sim"], offset_jitter_mm=0.0)
+    sim = simulate(seq.gt.joints[:5], names, seq.rig, s, np.random.default_rng(0))
+    for f in range(5):
+        # the keypoint frames come from the keypoints themselves: exact up to their small tilt
+        back = remove_profile("realistic_sim", names, sim.keypoints[f])
+        assert np.abs(back - seq.gt.joints[f]).max() < 0.006
+        assert np.abs(sim.keypoints[f] - seq.gt.joints[f]).max() > 0.04
+
+
+def test_keypoint_profile_auto_follows_the_sequence_and_names_are_checked(body):
+    from mocap.data.sources import folder_sequence
+    from mocap.trackers.presets import make_tracker
+
+    path = DEV / "walk_heavy_man"
+    seq = folder_sequence(body=body, path=str(path), images=False, detections={"semantics": "realistic"})
+    trk = make_tracker("marker_apf", body=body, rig=seq.rig, rng=np.random.default_rng(0))
+    trk.check_sequence(seq)
+    assert trk.profile == "realistic_sim"
+    plain = folder_sequence(body=body, path=str(path), images=False)
+    trk.check_sequence(plain)
+    assert trk.profile is None
+    with pytest.raises(ValueError, match="keypoint_profile"):
+        make_tracker("marker_apf", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                     keypoint_profile="openpose_v9")

@@ -58,3 +58,16 @@ def test_compiled_association_equals_numpy_bit_for_bit():
             np.testing.assert_array_equal(g, w)
         matched += int(got[2].sum())
     assert matched > 100
+
+
+def test_an_outlier_view_is_down_weighted_and_the_others_are_not():
+    from mocap.trackers.markers.refine import view_weights
+
+    rng = np.random.default_rng(0)
+    view = np.repeat(np.arange(5), 10)
+    norm = np.abs(rng.normal(0, 2.0, 50))
+    norm[view == 3] += 40.0                                     # a view with the wrong person / swapped
+    w = view_weights(norm, view, 5, factor=3.0, floor_px=4.0)
+    assert np.all(w[view != 3] == 1.0)
+    assert np.all(w[view == 3] < 0.1)
+    assert np.all(view_weights(np.abs(rng.normal(0, 2.0, 50)), view, 5, 3.0, 4.0) == 1.0)

@@ -10,15 +10,40 @@ frame with the tracker's estimate: o_l = median_t G_j(chi_t)^-1 X_l,t - r_l (nee
 ``min_samples`` frames), its norm clipped to ``max_norm`` metres. From then on the
 likelihood projects r_l + o_l: the pose is fitted to what the detector marks, and the
 estimate's landmarks (diagnostics, and :meth:`MarkerEnergy.points`) are the keypoints.
+
+Offsets that a change of pose can mimic (the hips and the mid-hip all higher: the body a little
+higher or tilted) cannot be told apart from the pose by the detections alone: the tracker's pose
+absorbs them before they are learned. A **detector profile** is the prior knowledge that tells
+them apart: the mean offsets of a detector's keypoints from the anatomical joints, calibrated
+on data with ground truth (:data:`PROFILES`, in the keypoint frames of
+:func:`mocap.data.detector_semantics.keypoint_frames`). With a profile (the marker tracker's
+``keypoint_profile``) the start-up removes the profile's offsets from the triangulated
+keypoints before it fits the shape and pose (:func:`remove_profile`), tracking starts with the
+profile's offsets in the rest frames (:func:`profile_rest_offsets`), and online learning adds
+the sequence's own residual offsets on top.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
+from mocap.data.detector_semantics import keypoint_frames, local_offsets
 from mocap.settings import check
+
+#: detector profiles: keypoint type -> mean (out, forward, up) offset in mm (module docstring).
+#: ``realistic_sim``: the simulated detector of ``data.detections.semantics=realistic``, calibrated
+#: on the real-motion DEV split and data/mismatch (8 views, seeds 0-2): the mean of robust
+#: triangulations of its detections against the ground-truth joints
+#: (``python studies/detector_semantics.py --calibrate``)
+PROFILES: dict[str, dict[str, tuple[float, float, float]]] = {
+    "realistic_sim": {"mid_hip": (-1.0, 4.0, 44.0), "neck_base": (-1.0, 13.0, 18.0),
+                      "head_centre": (-1.0, 26.0, 10.0), "shoulder": (12.0, -8.0, 22.0),
+                      "elbow": (8.0, -13.0, 0.0), "wrist": (-1.0, 8.0, -6.0), "hip": (21.0, 5.0, 45.0),
+                      "knee": (-1.0, 18.0, 1.0), "ankle": (4.0, -4.0, -12.0)},
+}
 
 
 @dataclass(frozen=True)
@@ -51,3 +76,27 @@ def robust_offsets(samples: np.ndarray, settings: OffsetLearning) -> np.ndarray:
     o = np.where(have[:, None] & np.isfinite(o), o, 0.0)
     n = np.linalg.norm(o, axis=1, keepdims=True)
     return o * np.minimum(1.0, settings.max_norm / np.maximum(n, 1e-12))
+
+
+def profile_table(profile: str | Mapping) -> dict:
+    """A profile's table (keypoint type -> (out, forward, up) mm) from its name or the table."""
+    if isinstance(profile, str):
+        if profile not in PROFILES:
+            raise ValueError(f"keypoint_profile must be null, one of {sorted(PROFILES)} or a table "
+                             f"keypoint type -> [out, forward, up] mm, got {profile!r}")
+        return PROFILES[profile]
+    return {str(k): tuple(float(x) for x in v) for k, v in dict(profile).items()}
+
+
+def profile_rest_offsets(profile: str | Mapping, names: Sequence[str], rest: np.ndarray) -> np.ndarray:
+    """(L, 3) offsets in the rest frames of landmarks ``names`` at rest positions ``rest`` (L, 3)."""
+    frames = keypoint_frames(np.asarray(rest, np.float64)[None], names)[0]
+    return np.einsum("lab,lb->la", frames, local_offsets(names, profile_table(profile)))
+
+
+def remove_profile(profile: str | Mapping, names: Sequence[str], points: np.ndarray) -> np.ndarray:
+    """Measured keypoints (L, 3) world (NaN: unmeasured) minus the profile's offsets in their
+    own keypoint frames: estimates of the anatomical points (NaN where a frame's torso points
+    are unmeasured)."""
+    frames = keypoint_frames(np.asarray(points, np.float64)[None], names)[0]
+    return points - np.einsum("lab,lb->la", frames, local_offsets(names, profile_table(profile)))

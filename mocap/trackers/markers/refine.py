@@ -7,7 +7,10 @@ diffusion, truncated costs); near the optimum the likelihood is a plain least-sq
 problem. Each landmark is associated, in each view, with the candidate nearest to its
 projection within ``gate_px`` (re-associated every iteration); residuals are the pixel
 offsets u_lc(chi) - z_lc, weighted by the detection's confidence (``use_confidence``) and
-robustly by Huber's weights with scale ``huber_px``. The Jacobian is taken by forward
+robustly by Huber's weights with scale ``huber_px``; a view whose median residual is more
+than ``outlier_views`` times the median over the views (and above ``huber_px``) is an outlier
+view (a left/right swap, another person's limbs): its weights are scaled by
+(``outlier_views`` x median / its median)^2. The Jacobian is taken by forward
 differences in one batch of D + 1 poses through the (compiled) landmark kinematics; a
 Gaussian prior of width ``prior_std`` (radians / twist units) keeps the pose near the APF
 estimate where the detections say little; joint limits are enforced by clipping.
@@ -29,13 +32,16 @@ from mocap.settings import check
 class Refinement:
     """iterations: 0 disables; gate_px: association radius (None: the likelihood's gate);
     huber_px: robust scale; prior_std: per-DOF prior width around the APF estimate;
-    use_confidence: weight residuals by detection confidence; step: finite difference."""
+    use_confidence: weight residuals by detection confidence; outlier_views: down-weight a
+    view whose median residual exceeds this many times the views' median (0: off); step:
+    finite difference."""
 
     iterations: int = 3
     gate_px: float | None = None
     huber_px: float = 4.0
     prior_std: float = 0.1
     use_confidence: bool = True
+    outlier_views: float = 0.0
     step: float = 1e-4
     damping: float = 1e-3
 
@@ -44,6 +50,7 @@ class Refinement:
         check(self, "gate_px", self.gate_px is None or self.gate_px > 0, "null or > 0 px")
         check(self, "huber_px", self.huber_px > 0, "> 0 px")
         check(self, "prior_std", self.prior_std > 0, "> 0")
+        check(self, "outlier_views", self.outlier_views == 0 or self.outlier_views > 1, "0 (off) or > 1")
         check(self, "step", self.step > 0, "> 0")
         check(self, "damping", self.damping >= 0, ">= 0")
 
@@ -75,6 +82,8 @@ def refine_pose(points: Callable[[np.ndarray], np.ndarray], chi0: np.ndarray, ob
         w = np.where(norm <= s.huber_px, 1.0, s.huber_px / np.maximum(norm, 1e-12))
         if s.use_confidence:
             w = w * conf[ok]
+        if s.outlier_views:
+            w = w * view_weights(norm, np.nonzero(ok)[1], ok.shape[1], s.outlier_views, s.huber_px)
         Jf = J.transpose(1, 2, 0).reshape(-1, D)                     # (2M, D)
         wf = np.repeat(w, 2)
         rf = r.reshape(-1)
@@ -91,3 +100,21 @@ def refine_pose(points: Callable[[np.ndarray], np.ndarray], chi0: np.ndarray, ob
         if ok.any():
             info["residual_px_after"] = float(np.median(np.linalg.norm((u[0] - z)[ok], axis=1)))
     return chi, info
+
+
+def view_weights(norm: np.ndarray, view: np.ndarray, views: int, factor: float, floor_px: float,
+                 min_count: int = 3) -> np.ndarray:
+    """Per-residual weights (M,) that down-weight outlier views: residual norms (M,) px in
+    views ``view`` (M,); a view (with ``min_count`` residuals or more) whose median residual m_c
+    exceeds ``factor`` x max(median over such views, ``floor_px``) gets (factor x that / m_c)^2,
+    the others 1."""
+    med = np.full(views, np.nan)
+    for c in range(views):
+        sel = view == c
+        if sel.sum() >= min_count:
+            med[c] = np.median(norm[sel])
+    if np.isfinite(med).sum() < 3:
+        return np.ones_like(norm)
+    limit = factor * max(float(np.nanmedian(med)), floor_px)
+    wv = np.where(np.isfinite(med) & (med > limit), (limit / np.where(np.isfinite(med), med, 1.0)) ** 2, 1.0)
+    return wv[view]

@@ -37,7 +37,12 @@ from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
 from mocap.trackers.markers.anneal import PartGroup, part_groups, run_annealing
 from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
-from mocap.trackers.markers.offsets import local_residuals, robust_offsets
+from mocap.trackers.markers.offsets import (
+    local_residuals,
+    profile_rest_offsets,
+    remove_profile,
+    robust_offsets,
+)
 from mocap.trackers.markers.refine import refine_pose
 from mocap.trackers.markers.settings import MarkerInit, MarkerSettings  # noqa: F401  (MarkerInit: re-exported)
 from mocap.trackers.markers.startup import (
@@ -76,7 +81,10 @@ class MarkerAPFTracker(AnnealedStep):
         self.start_up: dict = {}
         self.refinement = settings.refine
         self.offset_learning = settings.offsets
-        self.offsets: np.ndarray | None = None          # (L, 3) once learned
+        self.offsets: np.ndarray | None = None          # (L, 3): the profile's, then learned
+        self.profile = None if settings.keypoint_profile == "auto" else settings.keypoint_profile
+        self._auto_profile = settings.keypoint_profile == "auto"
+        self._offsets_learned = False
         self._offset_samples: list[np.ndarray] = []
         self._refined: RefineTrace | None = None
 
@@ -91,6 +99,8 @@ class MarkerAPFTracker(AnnealedStep):
                              "data with detections (e.g. data=walk_markers_small, "
                              "or a keypoint recording such as data=pose2sim_demo), or a silhouette tracker")
         make_landmark_set(self.body, self.landmark_spec, det.labels)          # raises on unknown names
+        if self._auto_profile:          # the detector profile the detections declare (or none)
+            self.profile = (seq.meta.get("detections") or {}).get("keypoint_profile")
         if not np.any(det.frame == 0):
             raise ValueError(f"{self.name}: sequence {seq.name!r} has no detections in its first frame")
 
@@ -101,6 +111,9 @@ class MarkerAPFTracker(AnnealedStep):
                              "data=walk_markers_small, or a keypoint recording such as data=pose2sim_demo)")
         if self.landmarks is None:
             self.landmarks = make_landmark_set(self.body, self.landmark_spec, frame.detections.labels)
+            if self.profile is not None:
+                profile_rest_offsets(self.profile, self.landmarks.names,       # raises: names it needs
+                                     np.zeros((len(self.landmarks), 3)))
             if self.crossover:
                 self.groups = part_groups(dof_moves(self.body, self.landmarks))
         return self.landmarks
@@ -116,6 +129,7 @@ class MarkerAPFTracker(AnnealedStep):
             raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
         self.shaped = self.body.shaped(alpha)
         self.history = [chi]
+        self.offsets, self._offsets_learned, self._offset_samples = None, False, []
 
     def initial_estimate(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
         """(chi (D,), alpha (K,)) from one frame of labelled detections (Sec. 3.1), robust to
@@ -140,6 +154,8 @@ class MarkerAPFTracker(AnnealedStep):
         lms = self.landmarks
         self.start_up_flags: list[str] = []
         sources = self._start_up_sources(frame, obs)
+        if self.profile is not None:        # the detector's keypoints -> the anatomical points
+            sources = [(name, self._without_profile(X)) for name, X in sources]
         if not sources:
             raise ValueError(f"{self.name}: frame {frame.index}: fewer than 3 landmarks could be "
                              "triangulated (the initialisation needs labelled detections in >= 2 views)")
@@ -157,7 +173,8 @@ class MarkerAPFTracker(AnnealedStep):
                 rest = lms.rest_points(shaped).astype(np.float64)
                 chi = neutral_pose(self.body, rest, measured, root_rigid(self.body, lms))
                 chi = self._fit_to_points(shaped, chi, measured)
-                energy = MarkerEnergy(lms, shaped, self.pinhole, obs, self.likelihood, F=self.F)
+                energy = MarkerEnergy(lms, shaped, self.pinhole, obs, self.likelihood, F=self.F,
+                                      rest_offsets=self._profile_offsets(shaped))
                 if self.init.refine_iterations:     # score each shape at its best pose, not the IK's
                     chi, _ = refine_pose(energy.points, chi, obs, self.pinhole, self.body.limits,
                                          replace(self.refinement, iterations=self.init.refine_iterations,
@@ -169,6 +186,19 @@ class MarkerAPFTracker(AnnealedStep):
         if "mean shape" in label and self.init.fit_shape and not self.start_up_flags:
             self.start_up_flags.append(f"start-up: the mean shape fitted the detections better ({label})")
         return chi, alpha
+
+    def _profile_offsets(self, shaped: ShapedBody) -> np.ndarray | None:
+        """The detector profile's offsets (L, 3) in the rest frames of ``shaped`` (None: no profile)."""
+        if self.profile is None:
+            return None
+        rest = self.landmarks.rest_points(shaped).astype(np.float64)
+        return profile_rest_offsets(self.profile, self.landmarks.names, rest)
+
+    def _without_profile(self, X: np.ndarray) -> np.ndarray:
+        """Triangulated keypoints (L, 3) minus the profile's offsets; where the keypoint frames
+        are unknown (torso keypoints unmeasured) the keypoints as measured."""
+        Y = remove_profile(self.profile, self.landmarks.names, X)
+        return np.where(np.isfinite(Y), Y, X)
 
     def _start_up_sources(self, frame: Frame, obs: MarkerObservation) -> list[tuple[str, np.ndarray]]:
         """[(name, measured landmarks (L, 3) world, NaN = unmeasured)] of the module's start-up."""
@@ -232,6 +262,8 @@ class MarkerAPFTracker(AnnealedStep):
     def frame_energy(self, frame: Frame, predicted: np.ndarray) -> tuple[MarkerEnergy, np.ndarray]:
         obs = self.observe(frame)
         lms = self.landmarks
+        if self.offsets is None and self.profile is not None:
+            self.offsets = self._profile_offsets(self.shaped)
         pred_pts = lms.positions(self.shaped, predicted[None])[0].astype(np.float64)
         n_views = views_near(obs, self.pinhole, pred_pts, self.likelihood.gate_px)
         weak = n_views < self.likelihood.min_views
@@ -242,14 +274,16 @@ class MarkerAPFTracker(AnnealedStep):
     def _learn_offsets(self, energy: MarkerEnergy, chi: np.ndarray) -> None:
         """Collect one frame's keypoint residuals; set the offsets when enough are in."""
         s = self.offset_learning
-        if not s.frames or self.offsets is not None:
+        if not s.frames or self._offsets_learned:
             return
         X, _ = triangulate_candidates(self.pinhole, energy.obs, self.likelihood.gate_px)
         G = self.shaped.pose(chi[None]).transforms[0].astype(np.float64)[self.landmarks.joint]
-        rest = self.landmarks.rest_points(self.shaped).astype(np.float64)
+        prior = np.zeros((len(self.landmarks), 3)) if self.offsets is None else self.offsets
+        rest = self.landmarks.rest_points(self.shaped).astype(np.float64) + prior
         self._offset_samples.append(local_residuals(G, X, rest))
-        if len(self._offset_samples) >= s.frames:
-            self.offsets = robust_offsets(np.stack(self._offset_samples), s)
+        if len(self._offset_samples) >= s.frames:          # the profile's, plus what this sequence adds
+            self.offsets = prior + robust_offsets(np.stack(self._offset_samples), s)
+            self._offsets_learned = True
 
     def search(self, energy: MarkerEnergy, predicted: np.ndarray):
         chi, trace = run_annealing(energy.landmark_costs, predicted, self.std0, self.body.limits,
