@@ -43,7 +43,11 @@ _HYBRID_PRIOR = replace(HybridSettings(),
 #: the two-cue hybrid's keypoint weight (one keypoint correspondence against one contour
 #: correspondence), chosen on the real-motion benchmark's dev split (docs/results/two_cue_hybrid.md)
 KEYPOINT_WEIGHT = 200.0
-_HYBRID_KP = replace(HybridSettings(), keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT))
+#: its start-up shape fit to the keypoints' bone lengths (prior std around the silhouettes' shape),
+#: chosen on the same dev split among 0, 1 and 3 (docs/results/real_motion.md)
+KEYPOINT_SHAPE_STD = 1.0
+_HYBRID_KP = replace(HybridSettings(), keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
+                                                          shape_std=KEYPOINT_SHAPE_STD))
 
 #: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
 #: (docs/results/real_motion.md): its narrow sigma makes -log p steep

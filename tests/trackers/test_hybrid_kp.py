@@ -74,7 +74,8 @@ def test_the_initialisation_refinement_fixes_the_arm_with_the_cue_only(body, seq
     the cue, the folded arm of frame 0 comes back (error at least halved); the report says the
     two-cue energy fell."""
     start = folded_arm(body, seq.gt.chi[0])
-    t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), local=FAST["local"])
+    t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), local=FAST["local"],
+                     keypoints={"shape_std": 0.0})
     chi, alpha, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)
     np.testing.assert_array_equal(alpha, seq.gt.alpha)             # shape_std 0: the shape kept
     r = report["keypoint_refine"]
