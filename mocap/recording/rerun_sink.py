@@ -170,6 +170,9 @@ class RerunSink:
         rec.log("run/config", rr.TextDocument(f"```yaml\n{info.config_yaml}\n```",
                                               media_type=rr.MediaType.MARKDOWN), static=True)
         rec.log("run/metadata", rr.TextDocument(json.dumps(info.metadata, indent=2)), static=True)
+        # the file holds the run's config and cameras before tracking starts (frames come in
+        # batches): a run that dies keeps them, and ``<path>.part`` marks a run in progress
+        rec.flush()
 
     def finish(self, metrics: dict | None, failed: bool = False) -> None:
         if self.rec is None:
