@@ -141,7 +141,10 @@ def test_an_interrupted_rerun_is_never_taken_for_the_new_run(old_run, sig, tmp_p
     proc = subprocess.Popen([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={run}", *FAST,
                              "recording.enabled=true", "frames=20", "tracker.particles=150",
                              "tracker.layers=4"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=REPO,
+                            # a user's Ctrl-C reaches a foreground run: a suite started in the
+                            # background (`cmd &`) hands its children SIGINT ignored
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     t0 = time.time()
     while not (run / "recording.rrd.part").exists():
         assert proc.poll() is None and time.time() - t0 < 120, "the re-run ended before it was interrupted"
