@@ -230,6 +230,13 @@ def write_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
     missing = [k for k in REQUIRED if k not in arrays]
     if missing:
         raise ValueError(f"motion arrays miss {', '.join(missing)}")
+    return write_npz_atomic(path, arrays)
+
+
+def write_npz_atomic(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
+    """``np.savez_compressed`` to ``path`` atomically: a temporary file beside it, synced, then
+    ``os.replace`` (a failed write leaves no file that looks complete)."""
+    path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         with open(tmp, "wb") as fh:

@@ -90,20 +90,10 @@ def people_motion_arrays(body, people: Mapping[int, Mapping[int, object]], frame
 
 
 def write_people_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
-    """Write the arrays atomically (a temporary file renamed into place)."""
-    import os
+    """Write the arrays atomically (:func:`mocap.export.motion.write_npz_atomic`)."""
+    from mocap.export.motion import write_npz_atomic
 
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return write_npz_atomic(path, arrays)
 
 
 def load_people_motion(path: str | Path) -> dict[str, np.ndarray]:
