@@ -45,7 +45,7 @@ def _binding_error(exc: BaseException) -> bool:
 
 
 def _is_user_error(exc: BaseException) -> bool:
-    from mocap.run_folder.tracking import DURING_WORK_NOTE
+    from mocap.run_folder.attempt import DURING_WORK_NOTE
 
     if DURING_WORK_NOTE in getattr(exc, "__notes__", ()):
         return False            # raised after the checks, while tracking: a programming error

@@ -19,7 +19,6 @@ person), then the run folder's files as a single-person run writes them
 
 from __future__ import annotations
 
-import sys
 import time
 
 import numpy as np
@@ -27,12 +26,10 @@ from tqdm import tqdm
 
 from mocap.data.people_truth import people_truth
 from mocap.eval.people_metrics import people_run_metrics
-from mocap.eval.resume import drop_previous
 from mocap.eval.run_metadata import run_metadata
 from mocap.export.people_motion import people_motion_arrays, write_people_motion
 from mocap.recording.sink import RunInfo
-from mocap.run_folder.manifest import write_manifest
-from mocap.run_folder.read import write_json
+from mocap.run_folder.attempt import run_attempt, seal_run
 from mocap.threads import thread_budget
 from mocap.trackers.run import frame_of
 
@@ -77,7 +74,7 @@ def track_people(out_dir, config, body, seq, tracker, F, sink, recording, seed, 
 
     t0 = time.perf_counter()
     seconds = [0.0]
-    try:
+    with run_attempt(out_dir, sink):
         with thread_budget(threads), tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
             tracks = tracker.start(frame_of(seq, 0))
             start_up = time.perf_counter() - t0
@@ -124,18 +121,7 @@ def track_people(out_dir, config, body, seq, tracker, F, sink, recording, seed, 
             threads=threads, wall_seconds=wall, tracking_seconds=tracking_seconds,
             recording_seconds=recording_seconds, config=config)
         write_people_motion(out_dir / "motion.npz", arrays)
-        write_json(out_dir / "metrics.json", metrics)
-        sink.finish(metrics)
-        write_manifest(out_dir, ["motion.npz", "metrics.json", *(["recording.rrd"] if recording else [])],
-                       overrides)
-    except BaseException as exc:
-        sink.finish(None, failed=True)
-        kept = (" (the earlier complete run is kept in previous_run/)"
-                if (out_dir / "previous_run").is_dir() else "")
-        print(f"{out_dir}: not complete, no manifest.json written ({type(exc).__name__}){kept}",
-              file=sys.stderr)
-        raise
-    drop_previous(out_dir)
+        seal_run(out_dir, sink, metrics, recording, overrides)
     accuracy = ""
     if "per_person" in metrics:
         accuracy = (f"{metrics['identity_switches']} identity switches, MPJPE {metrics['mpjpe_mm']:.1f} mm, "

@@ -45,7 +45,6 @@ from mocap.eval.by_name import NameScorer
 from mocap.eval.quality import quality_flags
 from mocap.eval.resume import (
     config_changes,
-    drop_previous,
     restore_previous,
     restore_stored_config,
     run_state,
@@ -56,8 +55,8 @@ from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink, recording_settings
 from mocap.recording.sink import RunInfo
-from mocap.run_folder.manifest import manifest_problem, write_manifest
-from mocap.run_folder.read import write_json
+from mocap.run_folder.attempt import run_attempt, seal_run
+from mocap.run_folder.manifest import manifest_problem
 from mocap.threads import resolve_threads
 from mocap.trackers.base import Tracker
 from mocap.trackers.init_cache import initial_estimate
@@ -69,11 +68,6 @@ Wrap = Callable[[Tracker, BodyModel, Sequence], Tracker]
 Extra = Callable[[dict, TrackResult, BodyModel, Sequence], dict]
 
 INIT_MODES = ("gt_noise", "tracker")
-
-
-#: the note added to an exception raised after every check passed (while tracking or writing the
-#: results): not a user's mistake, so ``mocap`` shows its traceback (mocap_cli/errors.py)
-DURING_WORK_NOTE = "mocap: raised while tracking, after every setting and input was checked"
 
 
 class RunDirectoryConflict(FileExistsError):
@@ -266,7 +260,7 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
         bar.update(1)
 
     t0 = time.perf_counter()
-    try:
+    with run_attempt(out_dir, sink):
         with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
             result = track_sequence(stepped, seq, init, alpha, F,
                                     on_frame=lambda f, e, s: record(f, e, s, bar), threads=threads)
@@ -300,20 +294,7 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
         write_motion(out_dir / "motion.npz", motion_arrays(
             body, result.estimates, result.seconds, seq.fps, vertices=vertices,
             info={"tracker": tracker.name, "data": seq.name, "seed": seed, "run_id": run_id}))
-        write_json(out_dir / "metrics.json", metrics)
-        sink.finish(metrics)
-        write_manifest(out_dir, ["motion.npz", "metrics.json", *(["recording.rrd"] if recording else [])],
-                       overrides)
-    except BaseException as exc:
-        if isinstance(exc, Exception) and not isinstance(exc, OSError):
-            exc.add_note(DURING_WORK_NOTE)
-        sink.finish(None, failed=True)
-        kept = (" (the earlier complete run is kept in previous_run/)"
-                if (out_dir / "previous_run").is_dir() else "")
-        print(f"{out_dir}: not complete, no manifest.json written ({type(exc).__name__}){kept}",
-              file=sys.stderr)
-        raise
-    drop_previous(out_dir)
+        seal_run(out_dir, sink, metrics, recording, overrides)
     accuracy = ""
     if "mpjpe_mm" in metrics:
         spread = f" ± {metrics['mpjpe_std_mm']:.1f}" if "mpjpe_std_mm" in metrics else ""
