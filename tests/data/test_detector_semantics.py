@@ -144,3 +144,22 @@ def test_bad_options_fail_with_one_line():
         semantics_from({"semantics": "realistic", "swap": 0.1})
     with pytest.raises(ValueError, match="swap_rate"):
         semantics_from({"semantics": "realistic", "swap_rate": 2.0})
+
+
+def test_canton_preset_is_canton_ferrer_corruption_alone(walk):
+    """``semantics=canton``: the keypoints are the joints (no offsets, swaps or foreign limbs),
+    about 90 % of them detected, 2 px Gaussian noise, 0.1 false positives per keypoint."""
+    seq, names = walk
+    s = semantics_from({"semantics": "canton"})
+    sim = simulate(seq.gt.joints, names, seq.rig, s, np.random.default_rng(3))
+    np.testing.assert_array_equal(sim.keypoints, seq.gt.joints)
+    assert not sim.swapped.any() and not sim.foreign.any()
+    F, J = seq.gt.joints.shape[:2]
+    C = len(seq.rig)
+    det = sim.detections
+    truth = np.stack([project(seq.rig, seq.gt.joints[f]) for f in range(F)])     # (F, C, J, 2)
+    err = np.linalg.norm(det.xy - truth[det.frame, det.view, det.label], axis=-1)
+    true_hits = err < 12.0                       # 6 sigma of 2 px; a false positive this close is rare
+    assert 0.86 < true_hits.sum() / (F * C * J) < 0.94          # clipped at the image border: a little less
+    assert np.sqrt(np.mean(err[true_hits] ** 2) / 2) == pytest.approx(2.0, rel=0.08)
+    assert 0.07 < (~true_hits).sum() / (F * C * J) < 0.13
