@@ -50,12 +50,15 @@ def _key(tracker, frame: Frame) -> str:
 def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = None
                      ) -> tuple[np.ndarray, np.ndarray, dict]:
     """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
-    the computation, also on a cache hit), cached (bool), and the initialiser's hypotheses and
-    margin where it reports them. A tracker with ``refine_initial(frame, chi, alpha) -> (chi,
-    alpha, report)`` (the two-cue hybrid) refines the pose (and shape) afterwards, outside the
-    cache (whose key describes the initialiser only); a non-empty report joins info with its
-    seconds."""
+    the computation, also on a cache hit), cached (bool), initializer_version (trackers with the
+    silhouette initialiser: the ``INITIALIZER_VERSION`` that made the pose, cached or not), and the
+    initialiser's hypotheses and margin where it reports them. A tracker with
+    ``refine_initial(frame, chi, alpha) -> (chi, alpha, report)`` (the two-cue hybrid) refines the
+    pose (and shape) afterwards, outside the cache (whose key describes the initialiser only); a
+    non-empty report joins info with its seconds."""
     chi, alpha, info = _cached_estimate(tracker, frame, cache)
+    if getattr(tracker, "init_settings", None) is not None:     # the silhouette initialiser's version
+        info = {**info, "initializer_version": INITIALIZER_VERSION}
     refine = getattr(tracker, "refine_initial", None)
     if refine is not None:
         t = time.perf_counter()

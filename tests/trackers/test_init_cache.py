@@ -9,6 +9,7 @@ from mocap.body import load_body
 from mocap.cameras import rig_from_config
 from mocap.trackers.base import Frame
 from mocap.trackers.init_cache import initial_estimate
+from mocap.trackers.initialization import INITIALIZER_VERSION
 
 
 class Counting:
@@ -37,6 +38,7 @@ def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path
     assert (a.calls, b.calls) == (1, 0) and not info_a["cached"] and info_b["cached"]
     np.testing.assert_array_equal(chi_a, chi_b)
     assert info_b["margin"] == 0.5 and "other" not in info_b
+    assert info_a["initializer_version"] == info_b["initializer_version"] == INITIALIZER_VERSION
     assert a.init_rng.random() == b.init_rng.random()          # same state after the hit
     # another seed, other masks or other settings: computed anew
     c = Counting(body, rig, seed=1)
