@@ -55,15 +55,15 @@ BASELINE = REPO / "benchmarks" / "baseline_speed.json"
 
 # name -> (tracker config, Hydra overrides, uses images)
 TRACKERS = {
-    "local": ("local", ["+tracker.sift.enabled=false"], False),
+    "local": ("local", ["++tracker.sift.enabled=false"], False),
     "local_sift": ("local", [], True),
     "apf_prior": ("apf_prior", [], False),
     "apf_25x10": ("apf_25x10", [], False),
     "apf": ("apf", [], False),
-    "hybrid": ("hybrid", ["+tracker.local.sift.enabled=false"], False),
+    "hybrid": ("hybrid", ["++tracker.local.sift.enabled=false"], False),
     # the full 10k-triangle mesh in the silhouette energy (the default before the energy mesh)
-    "apf_prior_full": ("apf_prior", ["+tracker.energy_mesh=null"], False),
-    "apf_full": ("apf", ["+tracker.energy_mesh=null"], False),
+    "apf_prior_full": ("apf_prior", ["++tracker.energy_mesh=null"], False),
+    "apf_full": ("apf", ["++tracker.energy_mesh=null"], False),
 }
 
 
