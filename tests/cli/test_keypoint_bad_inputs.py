@@ -247,5 +247,7 @@ def test_an_error_while_tracking_keeps_its_traceback(tmp_path, monkeypatch, caps
     with pytest.raises(KeyError) as info:
         main(["track", "tracker=apf", "data=walk_small", "data.frames=2", "tracker.particles=4",
               "tracker.layers=2", "recording.enabled=false", f"hydra.run.dir={tmp_path}"])
-    assert tracking.DURING_WORK_NOTE in info.value.__notes__
+    from mocap.run_folder.attempt import DURING_WORK_NOTE
+
+    assert DURING_WORK_NOTE in info.value.__notes__
     assert "error:" not in capsys.readouterr().err
