@@ -478,7 +478,10 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
         meta["gt"] = str(gt_path)
         if dropped:
             meta["dropped_nonfinite"] = dropped
-    return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, gt=truth, meta=meta)
+    # the frame count from the files, not from the last detection: trailing frames with nobody
+    # detected are frames of the recording too
+    return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, gt=truth, meta=meta,
+                    frames=all_frames[-1] - first + 1)
 
 
 def _ranges(frames: Seq[int]) -> str:

@@ -103,7 +103,9 @@ class GroundTruth:
 @dataclass(frozen=True)
 class Sequence:
     """masks: (F, C, H, W) bool silhouettes at camera resolution (None if absent);
-    images: (F, C, H, W, 3) uint8 RGB (None if absent). All views share one image size."""
+    images: (F, C, H, W, 3) uint8 RGB (None if absent). All views share one image size.
+    frames: the recording's frame count where no array carries it (keypoint recordings whose
+    last frames have no detection); None: from the masks, images, ground truth or detections."""
 
     name: str
     rig: Rig
@@ -113,8 +115,18 @@ class Sequence:
     detections: Detections | None = None
     gt: GroundTruth | None = None
     meta: dict = field(default_factory=dict)
+    frames: int | None = None
 
     def __post_init__(self) -> None:
+        if self.frames is not None:
+            held = [len(a) for a in (self.masks, self.images) if a is not None]
+            if self.detections is not None and len(self.detections):
+                last = int(self.detections.frame.max()) + 1
+                if last > self.frames:
+                    raise ValueError(f"sequence {self.name!r}: detections reach frame {last - 1}, "
+                                     f"beyond its {self.frames} frames")
+            if any(n != self.frames for n in held):
+                raise ValueError(f"sequence {self.name!r}: {self.frames} frames, its arrays have {held}")
         sizes = {tuple(s) for s in np.asarray(self.rig.sizes)}
         if len(sizes) != 1:
             raise ValueError(f"sequence {self.name!r}: all views must share one image size, "
@@ -131,6 +143,8 @@ class Sequence:
 
     @property
     def num_frames(self) -> int:
+        if self.frames is not None:
+            return self.frames
         for arr in (self.masks, self.images):
             if arr is not None:
                 return len(arr)

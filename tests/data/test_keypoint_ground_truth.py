@@ -186,3 +186,36 @@ def test_the_video_recording_takes_its_tracked_frames_of_the_ground_truth(tmp_pa
     np.savez(rec / "gt.npz", joints=joints[:5], joint_names=np.array(names), skeleton=np.array("humaneva15"))
     with pytest.raises(ValueError, match="field 'joints' has 5 frames, the recording 100"):
         load_video_sequence(rec, stop=10, step=2, scale=0.25, layout="auto")
+
+
+def test_trailing_frames_without_anyone_are_kept(two_people, tmp_path):
+    """A recording whose last frame has nobody detected in any view still has that frame: the
+    loader and ``mocap convert`` count the keypoint files, not the last detection."""
+    root, _, _ = two_people
+    src = tmp_path / "rec"
+    shutil.copytree(root, src)
+    src_gt = src / "gt.npz"
+    src_gt.unlink()                       # ground truth would also carry the count
+    last = sorted(src.glob("pose/*/*.json"))
+    views = sorted({p.parent for p in last})
+    for view in views:
+        final = sorted(view.glob("*.json"))[-1]
+        doc = json.loads(final.read_text())
+        doc["people"] = []
+        final.write_text(json.dumps(doc))
+    seq = load_openpose_sequence(src, layout="auto", person="all")
+    assert seq.num_frames == FRAMES and int(seq.detections.frame.max()) == FRAMES - 2
+    out = tmp_path / "seq"
+    assert main(["convert", str(src), str(out)]) == 0
+    assert load_sequence(out).num_frames == FRAMES
+    run = tmp_path / "run"
+    assert main(["track", *FAST, f"data.path={src}", f"hydra.run.dir={run}"]) == 0
+    assert json.loads((run / "metrics.json").read_text())["frames"] == FRAMES     # the empty frame tracked
+
+
+def test_a_frame_count_below_the_detections_is_refused(two_people):
+    from dataclasses import replace
+
+    seq = load_openpose_sequence(two_people[0], layout="auto", person="all")
+    with pytest.raises(ValueError, match="detections reach frame 2, beyond its 2 frames"):
+        replace(seq, frames=2, gt=None)
