@@ -217,7 +217,9 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
         warnings.warn(f"{folder}: non-finite values dropped (nonfinite=drop): "
                       + ", ".join(f"{n} {what}" for what, n in dropped.items()), stacklevel=2)
     return Sequence(name=str(info.get("name", folder.name)), rig=rig, fps=float(info.get("fps", 25.0)),
-                    masks=masks, images=imgs, detections=det, gt=truth, meta=meta, frames=frames)
+                    masks=masks, images=imgs, detections=det, gt=truth, meta=meta,
+                    # the count only where no array carries it (keypoints alone)
+                    frames=frames if masks is None and imgs is None else None)
 
 
 def _load_detections(path: Path, views: list[str], frames: int | None = None, nonfinite: str = "refuse",
