@@ -257,27 +257,32 @@ PER_FRAME = ("tracker_landmarks", "tracker_landmark_names",
 INFO = ("body", "model_hash", "tracker", "data", "run_id", "seed")
 
 
-def load_motion(path: str | Path) -> Motion:
-    """Read and check a ``motion.npz`` (a run directory works too)."""
+def read_motion_npz(path: str | Path) -> tuple[Path, dict[str, np.ndarray]]:
+    """(the file's path, every array of it) for a motion.npz of either format (a run directory
+    works too); a missing or unreadable file raises :class:`MotionFileError` naming it."""
     path = Path(path)
     if path.is_dir():
         path = path / "motion.npz"
     if not path.is_file():
         raise MotionFileError(f"{path}: not found (runs write motion.npz when they finish)")
     try:
-        z = np.load(path, allow_pickle=False)
+        with np.load(path, allow_pickle=False) as z:
+            return path, {k: z[k] for k in z.files}
     except (OSError, ValueError, zipfile.BadZipFile) as exc:
         raise MotionFileError(f"{path}: not a readable .npz ({exc})") from exc
-    with z:
-        if "format" in z and str(z["format"]) == "mocap-people-v1":
-            raise MotionFileError(f"{path}: holds several people (format 'mocap-people-v1'): read it with "
-                                  "mocap.export.people_motion.load_people_motion")
-        missing = [k for k in REQUIRED if k not in z]
-        if missing:
-            raise MotionFileError(f"{path}: missing field(s) {', '.join(missing)}")
-        if str(z["format"]) != FORMAT:
-            raise MotionFileError(f"{path}: format is {str(z['format'])!r}, expected {FORMAT!r}")
-        a = {k: z[k] for k in z.files}
+
+
+def load_motion(path: str | Path) -> Motion:
+    """Read and check a ``motion.npz`` (a run directory works too)."""
+    path, a = read_motion_npz(path)
+    if "format" in a and str(a["format"]) == "mocap-people-v1":
+        raise MotionFileError(f"{path}: holds several people (format 'mocap-people-v1'): read it with "
+                              "mocap.export.people_motion.load_people_motion")
+    missing = [k for k in REQUIRED if k not in a]
+    if missing:
+        raise MotionFileError(f"{path}: missing field(s) {', '.join(missing)}")
+    if str(a["format"]) != FORMAT:
+        raise MotionFileError(f"{path}: format is {str(a['format'])!r}, expected {FORMAT!r}")
     F = len(a["chi"])
     for k in ("frame_index", "timestamps", "alpha", "joints", "joint_rotations", "root_transform",
               "landmarks"):

@@ -28,13 +28,12 @@ message naming this module.
 
 from __future__ import annotations
 
-import zipfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from mocap.export.motion import MotionFileError, motion_arrays
+from mocap.export.motion import MotionFileError, motion_arrays, read_motion_npz
 
 FORMAT = "mocap-people-v1"
 PER_FRAME = ("chi", "alpha", "joints", "joint_rotations", "root_transform", "landmarks", "tracker_landmarks",
@@ -98,16 +97,7 @@ def write_people_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> P
 
 def load_people_motion(path: str | Path) -> dict[str, np.ndarray]:
     """The arrays of a several-people motion.npz (a run directory works too), checked."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "motion.npz"
-    if not path.is_file():
-        raise MotionFileError(f"{path}: not found (runs write motion.npz when they finish)")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            a = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise MotionFileError(f"{path}: not a readable .npz ({exc})") from exc
+    path, a = read_motion_npz(path)
     if str(a.get("format", "")) != FORMAT:
         raise MotionFileError(f"{path}: format is {str(a.get('format', ''))!r}, expected {FORMAT!r}")
     F, P = a["live"].shape
