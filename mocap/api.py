@@ -16,9 +16,8 @@ import numpy as np
 
 from mocap.body import BodyModel, load_body
 from mocap.data.sequence import Sequence
-from mocap.trackers.init_cache import initial_estimate
 from mocap.trackers.presets import make_tracker
-from mocap.trackers.run import TrackResult, frame_of, noisy_initial_pose, track_sequence
+from mocap.trackers.run import GivenStart, TrackResult, frame_of, run_frames, run_start
 
 
 def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: str = "walk",
@@ -33,33 +32,29 @@ def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: st
 def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None = None, seed: int = 0,
           init: str | np.ndarray = "auto", alpha: np.ndarray | None = None, frames: int | None = None,
           noise_deg: float = 3.0, noise_translation: float = 0.02, **settings) -> TrackResult:
-    """Track ``sequence`` with the tracker named ``tracker`` and return its estimates (one per
-    frame; frame 0 is the initial pose) and step times, as ``mocap track`` does.
+    """Track ``sequence`` with the tracker named ``tracker`` and return its tracks (person id ->
+    {frame: estimate}; ``result.estimates``: one per frame of a single-person tracker, frame 0
+    the initial pose) and step times, as ``mocap track`` does (the same start and frame loop).
 
     init: a pose (D,) (then ``alpha`` (K,) is the shape, default the mean); ``"gt_noise"``:
     ground truth plus noise (``noise_deg`` on angles, ``noise_translation`` m); ``"tracker"``:
     the tracker initialises itself from frame 0; ``"auto"``: gt_noise when the sequence has
-    a ground-truth pose, else tracker. The randomness is that of ``mocap track`` with the same seed.
+    a ground-truth pose and the tracker follows one person, else tracker. The randomness is that
+    of ``mocap track`` with the same seed.
     """
     body = body if body is not None else load_body("paper22")
     rng = np.random.default_rng(seed)
     t = make_tracker(tracker, body=body, rig=sequence.rig, rng=np.random.default_rng([seed, 1]), **settings)
+    t.check_sequence(sequence)
     if isinstance(init, str) and init == "auto":
-        init = "gt_noise" if sequence.gt is not None and sequence.gt.chi is not None else "tracker"
+        has_pose = sequence.gt is not None and sequence.gt.chi is not None
+        init = "gt_noise" if has_pose and not t.several_people else "tracker"
     if isinstance(init, str):
-        if init == "gt_noise":
-            if sequence.gt is None or sequence.gt.chi is None:
-                raise ValueError(f"sequence {sequence.name!r} has no ground-truth pose chi: "
-                                 "use init='tracker'")
-            chi = noisy_initial_pose(body, sequence.gt.chi[0], rng, noise_deg, noise_translation)
-            alpha = sequence.gt.alpha
-        elif init == "tracker":
-            if not hasattr(t, "initial_estimate"):
-                raise ValueError(f"tracker {tracker!r} cannot initialise itself: give an initial pose")
-            chi, alpha, _ = initial_estimate(t, frame_of(sequence, 0))   # as mocap track (no cache)
-        else:
+        if init not in ("gt_noise", "tracker"):
             raise ValueError(f"init must be 'auto', 'gt_noise', 'tracker' or a pose, got {init!r}")
+        start = run_start(init, t, body, sequence, rng, noise_deg, noise_translation)
     else:
-        chi = np.asarray(init, np.float64)
-        alpha = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha)
-    return track_sequence(t, sequence, chi, alpha, frames)
+        start = GivenStart(np.asarray(init, np.float64),
+                           np.zeros(body.num_shape) if alpha is None else np.asarray(alpha))
+    initial, _ = start(frame_of(sequence, 0))
+    return run_frames(t, sequence, initial, frames)

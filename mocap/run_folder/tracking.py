@@ -1,22 +1,17 @@
 """The run behind every tracking command (``mocap track``, ``mocap recovery``, ``mocap
-video-check``): resume check, body / data / tracker from their factories, initial pose, the
-frame loop (:func:`mocap.trackers.run.track_sequence`) into the recording sink, then
-motion.npz, metrics.json and recording.rrd in the run directory, in that order (the motion is
-kept when the recording fails), and last ``manifest.json`` (their sizes and checksums,
-:mod:`mocap.run_folder.manifest`): without it the folder is not a complete run. Commands differ only in
-the tracker they step (``wrap``) and the metrics they add (``extra``).
+video-check``): resume check, body / data / tracker from their factories, the start
+(:func:`mocap.trackers.run.run_start`), the one frame loop (:func:`mocap.trackers.run.run_frames`,
+for one person and for several alike) into the recording sink, then motion.npz, metrics.json
+and recording.rrd in the run directory, in that order (the motion is kept when the recording
+fails), and last ``manifest.json`` (their sizes and checksums, :mod:`mocap.run_folder.manifest`):
+without it the folder is not a complete run. Commands differ only in the tracker they step
+(``wrap``) and the metrics they add (``extra``). What differs between a single-person and a
+several-people run (the recording of a frame, the motion file, the metrics) are small functions
+chosen by the tracker's answer (:attr:`mocap.trackers.contract.Tracker.several_people`).
 
 The run's settings are read from ``config``, the resolved configuration as plain values (what
-metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents the keys):
-
-    seed, frames, threads            the data/tracker seed (an int >= 0), frames to track (an int
-                                     >= 1, at most the data's; None or "all": all), thread budget
-    init.mode                        gt_noise (ground truth + noise) | tracker (self-initialised)
-    init.noise_deg, init.noise_translation, init.cache
-    recording.*                      enabled, level (summary | standard | full), every, particles,
-                                     images, scale (:func:`mocap.recording.factory.recording_settings`)
-    motion.vertices                  keep the posed mesh per frame in motion.npz
-    skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.eval.resume`)
+metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents the keys), as
+:class:`mocap.run_folder.settings.RunSettings`.
 
 Settings are checked before any work (:func:`check_settings`). A re-run moves an earlier
 complete run into ``previous_run/`` first, and removes it only when the new run is complete;
@@ -33,6 +28,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -53,44 +49,25 @@ from mocap.eval.resume import (
 from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
-from mocap.recording.factory import make_sink, recording_settings
+from mocap.export.people_motion import people_motion_arrays, write_people_motion
+from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
 from mocap.run_folder.attempt import run_attempt, seal_run
 from mocap.run_folder.manifest import manifest_problem
-from mocap.threads import resolve_threads
-from mocap.trackers.base import Tracker
-from mocap.trackers.init_cache import initial_estimate
-from mocap.trackers.run import TrackResult, frame_of, noisy_initial_pose, search_budget, track_sequence
+from mocap.run_folder.people import people_metrics
+from mocap.run_folder.settings import INIT_MODES, RunSettings, check_settings  # noqa: F401  (re-exported)
+from mocap.threads import resolve_threads, thread_budget
+from mocap.trackers.contract import Tracker
+from mocap.trackers.run import TrackResult, frame_of, run_frames, run_start
 
 #: wrap(tracker, body, seq): the tracker to step instead
 Wrap = Callable[[Tracker, BodyModel, Sequence], Tracker]
 #: extra(metrics, result, body, seq): more metrics, merged before metrics.json is written
 Extra = Callable[[dict, TrackResult, BodyModel, Sequence], dict]
 
-INIT_MODES = ("gt_noise", "tracker")
-
 
 class RunDirectoryConflict(FileExistsError):
     """The run directory holds the results of another configuration (resume_on_change=fail)."""
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
-def check_settings(config: Mapping) -> int | None:
-    """The run's own settings, checked before any work; returns the frames to track (None:
-    all). Each error names the setting, its value and what is allowed."""
-    seed = config.get("seed", 0)
-    if not _is_int(seed) or seed < 0:
-        raise ValueError(f"setting seed = {seed!r} is not allowed (an integer >= 0)")
-    frames = config.get("frames")
-    if frames is None or frames == "all":
-        return None
-    if not _is_int(frames) or frames < 1:
-        raise ValueError(f"setting frames = {frames!r} is out of range (an integer >= 1, or all / null "
-                         "for every frame of the data)")
-    return int(frames)
 
 
 @contextlib.contextmanager
@@ -143,15 +120,9 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
 
 def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs, source, wrap, extra,
          overrides):
-    frames = check_settings(config)
-    init_cfg = dict(config.get("init") or {})
-    mode = init_cfg.get("mode", "gt_noise")
-    if mode not in INIT_MODES:
-        raise ValueError(f"init.mode must be one of {INIT_MODES}, got {mode!r}")
-    rec_cfg = recording_settings(config.get("recording"))     # checked before any work
-    recording = rec_cfg.enabled
-    seed = int(config.get("seed", 0))
-    threads = resolve_threads(config.get("threads", "auto"), parallel_jobs)
+    settings = RunSettings.from_config(config)          # checked before any work
+    recording = settings.recording.enabled
+    threads = resolve_threads(settings.threads, parallel_jobs)
     out_dir.mkdir(parents=True, exist_ok=True)
     probe = out_dir / ".write-check"
     try:
@@ -160,7 +131,7 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     except OSError as exc:
         raise PermissionError(f"run folder {out_dir} is not writable ({exc.strerror})") from None
     state = run_state(out_dir, config, recording, threads)
-    if config.get("skip_complete", False):
+    if settings.skip_complete:
         if state == "complete":
             print(f"skipping {out_dir}: already complete")
             return None
@@ -171,7 +142,7 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
                       file=sys.stderr)
             print(f"skipping {out_dir}: already complete (the run kept in previous_run/ restored)")
             return None
-    if state == "changed" and config.get("resume_on_change", "rerun") == "fail":
+    if state == "changed" and settings.resume_on_change == "fail":
         restore_stored_config(out_dir)      # Hydra has just overwritten it with the new one
         changed = ", ".join(config_changes(out_dir, config, threads))
         raise RunDirectoryConflict(f"{out_dir} holds a run of another configuration (changed: {changed}); "
@@ -179,122 +150,188 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     if state == "corrupt":
         print(f"{out_dir}: {manifest_problem(out_dir)}: running it again", file=sys.stderr)
     try:
-        prepared = _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence,
-                            make_tracker, wrap)
-        sink = make_sink(out_dir, rec_cfg)     # nothing written yet
+        prepared = _prepare(settings, threads, make_body, make_sequence, make_tracker, wrap)
+        sink = make_sink(out_dir, settings.recording)     # nothing written yet
     except BaseException:
         if state in ("complete", "changed"):
             restore_stored_config(out_dir)      # refused before any work: the old run stays as it was
         raise
     for note in set_aside(out_dir):     # nothing of an earlier attempt may describe this run
         print(note, file=sys.stderr)
-    if getattr(prepared[2], "several_people", False):       # marker_people: mocap/run_folder/people.py
-        from mocap.run_folder.people import track_people
-
-        body, seq, tracker, *_, F = prepared
-        return track_people(out_dir, config, body, seq, tracker, F, sink, recording, seed, threads, source,
-                            overrides)
-    return _track(out_dir, config, prepared, sink, recording, seed, threads, source, extra, overrides)
+    return _track(out_dir, config, settings, prepared, sink, threads, source, extra, overrides)
 
 
-def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequence, make_tracker, wrap):
-    """Body, data, tracker and initial pose, every check before the run directory is touched."""
+@dataclass(frozen=True)
+class _Prepared:
+    """What a run tracks with: the body, the data, the tracker (``stepped``: the one stepped,
+    ``wrap``'s), the single-person scorer (None: none), the start and its report, the frames."""
+
+    body: BodyModel
+    seq: Sequence
+    tracker: Tracker
+    stepped: Tracker
+    scorer: NameScorer | None
+    initial: dict
+    init_info: dict
+    frames: int
+
+
+def _prepare(settings: RunSettings, threads, make_body, make_sequence, make_tracker, wrap) -> _Prepared:
+    """Body, data, tracker and start, every check before the run directory is touched."""
     body = make_body()
     seq = make_sequence(body)
+    frames = settings.frames
     if frames is not None and frames > seq.num_frames:
         raise ValueError(f"setting frames = {frames} is beyond the data: {seq.name!r} has {seq.num_frames} "
                          "frames (frames=all or frames=null tracks every frame)")
-    if (seq.gt is None or seq.gt.chi is None) and mode == "gt_noise":
+    init = settings.init
+    if (seq.gt is None or seq.gt.chi is None) and init.mode == "gt_noise":
         raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
-    rng = np.random.default_rng(seed)
-    keep_particles = rec_cfg.keep_particles
-    tracker = make_tracker(body=body, rig=seq.rig, rng=np.random.default_rng([seed, 1]),
-                           keep_particles=keep_particles)
-    if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work
-        tracker.check_sequence(seq)
-    if getattr(tracker, "several_people", False):
-        from mocap.run_folder.people import check_people_run
-
-        check_people_run(tracker, mode, init_cfg, wrap)
-        return body, seq, tracker, tracker, None, None, None, {}, seq.num_frames if frames is None else frames
+    rng = np.random.default_rng(settings.seed)
+    tracker = make_tracker(body=body, rig=seq.rig, rng=np.random.default_rng([settings.seed, 1]),
+                           keep_particles=settings.recording.keep_particles)
+    tracker.check_sequence(seq)         # tracker/data compatibility, before any work
+    if tracker.several_people and wrap is not None:
+        raise ValueError(f"tracker {tracker.name!r} runs only with mocap track (this command wraps the "
+                         "tracker)")
+    start = run_start(init.mode, tracker, body, seq, rng, init.noise_deg, init.noise_translation, init.cache)
     # ground truth this body cannot be scored against fails here, naming the joints, not after
-    # the initialisation and tracking
-    scorer = NameScorer(body, seq.gt.person(0)) if seq.gt is not None else None
-    if seq.gt is not None and seq.gt.person_names:
-        scorer = None           # several people: scored per person at the end (mocap.eval.people)
-    if mode == "tracker":
-        if not hasattr(tracker, "initial_estimate"):
-            raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
-        init, alpha, init_info = initial_estimate(tracker, frame_of(seq, 0), init_cfg.get("cache"))
-    else:
-        init_info = {}
-        init = noisy_initial_pose(body, seq.gt.chi[0], rng, init_cfg["noise_deg"],
-                                  init_cfg["noise_translation"])
-        alpha = seq.gt.alpha
+    # the initialisation and tracking; several people are scored per person at the end
+    scorer = None
+    if seq.gt is not None and not tracker.several_people:
+        scorer = NameScorer(body, seq.gt.person(0))
+        if seq.gt.person_names:
+            scorer = None       # several people in the truth: scored per person (mocap.eval.people)
+    with thread_budget(threads):
+        initial, init_info = start(frame_of(seq, 0))
     stepped = wrap(tracker, body, seq) if wrap is not None else tracker
-    F = seq.num_frames if frames is None else frames
-    return body, seq, tracker, stepped, scorer, init, alpha, init_info, F
+    return _Prepared(body, seq, tracker, stepped, scorer, initial, init_info,
+                     seq.num_frames if frames is None else frames)
 
 
-def _track(out_dir, config, prepared, sink, recording, seed, threads, source, extra, overrides):
-    body, seq, tracker, stepped, scorer, init, alpha, init_info, F = prepared
+def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, source, extra, overrides):
+    body, seq, tracker = p.body, p.seq, p.tracker
+    recording = settings.recording.enabled
     text = config_text(config)
-    metadata = run_metadata(text, source, seed, tracker=tracker.name, data=seq.name)
-    run_id = metadata.get("run_id", "")
+    metadata = run_metadata(text, source, settings.seed, tracker=tracker.name, data=seq.name)
     sink.start(RunInfo(text, metadata), body, seq)
-    shapes = {"held": body.shaped(alpha)}
-    recording_seconds = [0.0]
-
-    def record(f, est, step_seconds, bar):
-        t = time.perf_counter()
-        if not np.array_equal(shapes["held"].alpha, est.alpha):     # refined while tracking
-            shapes["held"] = body.shaped(est.alpha)
-        shaped = shapes["held"]
-        out = shaped.pose(est.chi)
-        truth = err = None
-        if scorer is not None:
-            truth = scorer.truth_in_body_order(f)
-            err = scorer.metrics(shaped, est.chi, start=f)["mpjpe_mm"]
-        sink.frame(frame_of(seq, f), est, out.joints[0], out.vertices[0], truth, err, step_seconds)
-        recording_seconds[0] += time.perf_counter() - t
-        bar.update(1)
-
+    record = (_people_recorder if tracker.several_people else _person_recorder)(body, seq, sink, p.scorer)
+    start_seconds = float(p.init_info.get("seconds", 0.0))
     t0 = time.perf_counter()
     with run_attempt(out_dir, sink):
-        with tqdm(total=F, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
-            result = track_sequence(stepped, seq, init, alpha, F,
-                                    on_frame=lambda f, e, s: record(f, e, s, bar), threads=threads)
+        with tqdm(total=p.frames, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
+            def on_frame(f, out, step_seconds):
+                record(f, out, start_seconds if f == 0 else step_seconds)
+                bar.update(1)
+
+            result = run_frames(p.stepped, seq, p.initial, p.frames, on_frame=on_frame, threads=threads)
         wall = time.perf_counter() - t0
-        tracking_seconds = float(np.sum(result.seconds[1:]))
-        metrics = {
-            "tracker": tracker.name, "seed": seed, "data": seq.name,
-            **run_metrics(body, seq, result.estimates, result.seconds),
-            **search_budget(tracker),
-            **({"init": init_info} if init_info else {}),
-            # the numeric thread budget the run had: results depend on it at rounding level, and
-            # a search can turn rounding into another track (rerun with threads=<this>)
-            "threads": threads,
-            "wall_seconds": wall, "tracking_seconds": tracking_seconds,
-            "recording_seconds": recording_seconds[0],
-            "recording_overhead": recording_seconds[0] / tracking_seconds if tracking_seconds else 0.0,
-            "config": config,
-        }
-        metrics["quality"] = quality_flags(body, result.estimates[-1].alpha, result.estimates,
-                                           float(np.linalg.norm(seq.rig.sizes, axis=1).max()),
-                                           extra_flags=getattr(tracker, "start_up_flags", ()))
+        info = {"tracker": tracker.name, "data": seq.name, "seed": settings.seed,
+                "run_id": metadata.get("run_id", "")}
+        if result.several_people:
+            metrics, arrays = _people_outputs(body, seq, tracker, result, info, start_seconds)
+        else:
+            metrics, arrays = _person_outputs(body, seq, tracker, result, info, p.init_info,
+                                              settings.motion.vertices)
+        metrics.update(threads=threads, wall_seconds=wall, recording_seconds=record.seconds[0],
+                       config=config)
+        if not result.several_people:
+            tracking = metrics["tracking_seconds"]
+            metrics["recording_overhead"] = record.seconds[0] / tracking if tracking else 0.0
+            metrics["quality"] = quality_flags(body, result.estimates[-1].alpha, result.estimates,
+                                               float(np.linalg.norm(seq.rig.sizes, axis=1).max()),
+                                               extra_flags=tracker.start_up_flags)
         if seq.meta.get("dropped_nonfinite"):        # data.nonfinite=drop: what was left out
             metrics["dropped_nonfinite"] = seq.meta["dropped_nonfinite"]
         if extra is not None:
             metrics.update(extra(metrics, result, body, seq))
-        for flag in metrics["quality"]["flags"]:
+        for flag in metrics.get("quality", {}).get("flags", ()):
             print(f"WARNING: {flag}", file=sys.stderr)
         # the motion first (kept when the recording fails), then the metrics, the recording,
         # and last the manifest that makes the folder a complete run
-        vertices = bool((config.get("motion") or {}).get("vertices"))
-        write_motion(out_dir / "motion.npz", motion_arrays(
-            body, result.estimates, result.seconds, seq.fps, vertices=vertices,
-            info={"tracker": tracker.name, "data": seq.name, "seed": seed, "run_id": run_id}))
+        (write_people_motion if result.several_people else write_motion)(out_dir / "motion.npz", arrays)
         seal_run(out_dir, sink, metrics, recording, overrides)
+    print(f"{tracker.name}: {_summary(metrics)} -> {out_dir}")
+    return metrics
+
+
+# -- the parts that differ by what the estimates hold: one person, or several ----------------
+
+def _person_recorder(body, seq, sink, scorer):
+    """record(f, {0: estimate}, step seconds): the body posed at the estimate (its shape
+    refined while tracking), its error against the ground truth, into the recording."""
+    held = {}
+
+    def record(f, out, step_seconds):
+        t = time.perf_counter()
+        est = out[0]
+        if "shape" not in held or not np.array_equal(held["shape"].alpha, est.alpha):
+            held["shape"] = body.shaped(est.alpha)
+        shaped = held["shape"]
+        posed = shaped.pose(est.chi)
+        truth = err = None
+        if scorer is not None:
+            truth = scorer.truth_in_body_order(f)
+            err = scorer.metrics(shaped, est.chi, start=f)["mpjpe_mm"]
+        sink.frame(frame_of(seq, f), est, posed.joints[0], posed.vertices[0], truth, err, step_seconds)
+        record.seconds[0] += time.perf_counter() - t
+
+    record.seconds = [0.0]
+    return record
+
+
+def _people_recorder(body, seq, sink, scorer):
+    """record(f, {person id: estimate}, step seconds): each person's skeleton (one colour per
+    person) and the several-people ground truth of the frame, into the recording."""
+    from mocap.data.people_truth import people_truth
+
+    truth = people_truth(seq)
+    shaped: dict = {}
+
+    def record(f, out, step_seconds):
+        t = time.perf_counter()
+        posed = {}
+        for pid, est in out.items():
+            if pid not in shaped or not np.array_equal(shaped[pid].alpha, est.alpha):
+                shaped[pid] = body.shaped(est.alpha)
+            posed[pid] = (est, shaped[pid].pose(est.chi).joints[0])
+        gt = truth.joints[f] if truth is not None and f < len(truth.joints) else None
+        sink.people_frame(frame_of(seq, f), posed, gt, step_seconds)
+        record.seconds[0] += time.perf_counter() - t
+
+    record.seconds = [0.0]
+    return record
+
+
+def _person_outputs(body, seq, tracker, result, info, init_info, vertices):
+    """(metrics, motion arrays) of a single-person run (:mod:`mocap.export.motion`)."""
+    tracking_seconds = float(np.sum(result.seconds[1:]))
+    metrics = {"tracker": tracker.name, "seed": info["seed"], "data": seq.name,
+               **run_metrics(body, seq, result.estimates, result.seconds),
+               **tracker.budget.as_metrics(),
+               **({"init": init_info} if init_info else {}),
+               "tracking_seconds": tracking_seconds}
+    arrays = motion_arrays(body, result.estimates, result.seconds, seq.fps, vertices=vertices, info=info)
+    return metrics, arrays
+
+
+def _people_outputs(body, seq, tracker, result, info, start_seconds):
+    """(metrics, motion arrays) of a several-people run (:mod:`mocap.run_folder.people`)."""
+    F = result.frames
+    arrays = people_motion_arrays(body, result.tracks, F, result.seconds, seq.fps, info=info)
+    metrics = people_metrics(body, seq, tracker, result, arrays, start_seconds)
+    return metrics, arrays
+
+
+def _summary(metrics: dict) -> str:
+    """The line printed at the end of a run: accuracy and speed."""
+    if "people_per_frame" in metrics:           # several people
+        accuracy = ""
+        if "per_person" in metrics:
+            accuracy = (f"{metrics['identity_switches']} identity switches, "
+                        f"MPJPE {metrics['mpjpe_mm']:.1f} mm, "
+                        f"PCP min {100 * metrics.get('pcp_min', float('nan')):.1f} %, ")
+        return f"{len(metrics['people'])} people, {accuracy}{metrics['frames_per_second']:.2f} frames/s"
     accuracy = ""
     if "mpjpe_mm" in metrics:
         spread = f" ± {metrics['mpjpe_std_mm']:.1f}" if "mpjpe_std_mm" in metrics else ""
@@ -302,5 +339,4 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
     if "people" in metrics:         # ground truth of several people
         accuracy += (f"{metrics['people_tracked']} of {metrics['people_in_ground_truth']} people tracked, "
                      f"{metrics['identity_switches']} identity switches, ")
-    print(f"{tracker.name}: {accuracy}{metrics['sec_per_frame']:.2f} s/frame -> {out_dir}")
-    return metrics
+    return f"{accuracy}{metrics['sec_per_frame']:.2f} s/frame"

@@ -19,6 +19,7 @@ from mocap.energy.total import EnergyWeights, FrameEnergy
 from mocap.settings import fields_of
 from mocap.trackers.apf import APFSettings, run_apf
 from mocap.trackers.base import Frame
+from mocap.trackers.contract import Needs, OnePerson, SearchBudget
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.initialization import SilhouetteInitialisation
 from mocap.trackers.step import AnnealedStep
@@ -37,13 +38,15 @@ def internal_scale(rig: Rig, resolution: int) -> float:
     return min(1.0, resolution / float(np.max(rig.sizes)))
 
 
-class APFTracker(AnnealedStep, SilhouetteInitialisation):
+class APFTracker(AnnealedStep, SilhouetteInitialisation, OnePerson):
     """Tracks one subject of known shape from multi-view silhouettes.
 
     settings: the tracker's settings (a bare :class:`APFSettings`: that search, the rest at
     :class:`APFTrackerSettings`' defaults); weights: the energy weights (the settings' own
     by default); prior: the pose prior when ``weights.prior``; scale: the internal
     silhouette scale (by default ``settings.resolution`` px on the longer image side)."""
+
+    needs = Needs(masks=True)
 
     def __init__(self, body: BodyModel, rig: Rig, settings: APFTrackerSettings | APFSettings,
                  weights: EnergyWeights | None, rng: np.random.Generator, prior: PosePrior | None = None,
@@ -64,6 +67,10 @@ class APFTracker(AnnealedStep, SilhouetteInitialisation):
         self.history: list[np.ndarray] = []
         self.shaped = None
         self.energy: SilhouetteEnergy | None = None
+
+    @property
+    def budget(self) -> SearchBudget:
+        return SearchBudget(self.settings.particles, self.settings.layers, tuple(self.weights.terms))
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         chi = self.checked_pose(chi)

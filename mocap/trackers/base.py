@@ -34,7 +34,9 @@ class Estimate:
 
 
 class Tracker(Protocol):
-    """Every tracker: set up on the first frame, then one estimate per frame."""
+    """A tracker of one person: set up from a pose and shape, then one estimate per frame (what
+    the run asks of every tracker is :class:`mocap.trackers.contract.Tracker`; a single-person
+    tracker gets it from :class:`mocap.trackers.contract.OnePerson`)."""
 
     name: str
 

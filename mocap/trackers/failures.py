@@ -24,6 +24,7 @@ import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.trackers.base import Estimate, Frame, Tracker
+from mocap.trackers.contract import OnePerson
 from mocap.trackers.diagnostics import Injection, StepDiagnostics
 
 
@@ -71,14 +72,14 @@ class Perturbation:
         return np.clip(bad, body.limits[:, 0], body.limits[:, 1])
 
 
-class FailureInjection:
+class FailureInjection(OnePerson):
     """Wraps ``tracker``: same interface, same name; ``skips`` and ``perturbations`` happen
     at their frames (by ``Frame.index``); ``rng`` draws the perturbed DOFs and signs."""
 
     def __init__(self, tracker: Tracker, body: BodyModel, skips: Sequence[FrameSkip] = (),
                  perturbations: Sequence[Perturbation] = (), rng: np.random.Generator | None = None):
         self.tracker, self.body = tracker, body
-        self.name = tracker.name
+        self.name, self.needs = tracker.name, tracker.needs
         self.skipped = {f for s in skips for f in s.frames}
         self.perturbations = {p.at: p for p in perturbations}
         if len(self.perturbations) != len(perturbations):

@@ -32,6 +32,7 @@ from mocap.local.misalignment import LimbCheck, limb_chains
 from mocap.trackers.anneal import anneal, perturb
 from mocap.trackers.apf_tracker import diffusion_std, internal_scale
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.contract import SearchBudget
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
@@ -130,8 +131,20 @@ class HybridTracker(LocalTracker):
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
 
+    @property
+    def budget(self) -> SearchBudget:
+        return SearchBudget(self.settings.particles, self.settings.layers, tuple(self.weights.terms))
+
+    def initializer(self, cache=None):
+        """The silhouette initialisation (cached in ``cache``), then :meth:`refine_initial`."""
+        from mocap.trackers.init_cache import Refined
+
+        return Refined(super().initializer(cache), self.refine_initial)
+
     def check_sequence(self, seq) -> None:
-        """With the keypoint cue on, a ValueError before any work when ``seq`` has no detections."""
+        """A ValueError before any work when ``seq`` has no masks, or (the keypoint cue on) no
+        detections."""
+        super().check_sequence(seq)
         if self.cue is not None:
             check_detections(seq, self.name)
 
@@ -249,11 +262,8 @@ class HybridTracker(LocalTracker):
             chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs)
             target = energy.target
             t3 = time.perf_counter()
-            refine_iters, self.iterations = self.iterations, self.refine_iterations
-            try:
-                chi, refine = self.local_step(frame, chi_apf, extra=self.keypoint_lines(obs))
-            finally:
-                self.iterations = refine_iters
+            chi, refine = self.local_step(frame, chi_apf, extra=self.keypoint_lines(obs),
+                                          iterations=self.refine_iterations)
             per_view = self.sil.per_view(np.stack([chi_local, chi]), target)[:, target.valid]
             e_local, e_apf = per_view.mean(axis=1)
             if obs is not None:         # the two cues decide together

@@ -1,15 +1,20 @@
-"""Self-initialisation of a tracker, timed, with an optional on-disk cache.
+"""Self-initialisation as an object (:class:`mocap.trackers.contract.Initializer`), timed, with an
+optional on-disk cache.
 
-Initialising from silhouettes (:mod:`mocap.trackers.initialization`) costs tens of seconds and
-is the same computation for every silhouette tracker of a comparison: the same body, frame,
-rig, settings and random state give the same result. ``initial_estimate(..., cache=DIR)``
-keys a result by exactly those (a SHA-1 of the body's name and DOFs, the frame's masks, the
-calibration, the tracker's ``init_settings``, the state of its ``init_rng`` and the
-initialiser's ``INITIALIZER_VERSION``, raised when its algorithm changes; a tracker
-without ``init_settings``, such as the marker tracker, is never cached), stores it in
-``DIR/<key>.npz`` (written atomically) and reuses it; on a hit the random state is advanced to
-where the computation would have left it, so tracking continues identically. Parallel runs
-of one sweep wanting the same key wait for the first (an advisory file lock, POSIX only).
+:class:`SilhouetteStart` is the silhouette trackers' start (:mod:`mocap.trackers.initialization`);
+:class:`Refined` composes a start with a refinement run after it (the two-cue hybrid's keypoint
+search), outside the cache; :class:`Cached` keeps a start's results on disk.
+
+Initialising from silhouettes costs tens of seconds and is the same computation for every
+silhouette tracker of a comparison: the same body, frame, rig, settings and random state give
+the same result. ``Cached(start, DIR)`` keys a result by exactly what the start's ``cache_key``
+names (for :class:`SilhouetteStart`: a SHA-1 of the body's name and DOFs, the frame's masks,
+the calibration, the initialiser's settings, the state of its generator and the
+initialiser's ``INITIALIZER_VERSION``, raised when its algorithm changes; a start whose key is
+None, such as the marker tracker's, is never cached), stores it in ``DIR/<key>.npz`` (written
+atomically) and reuses it; on a hit the random state is advanced to where the computation would
+have left it, so tracking continues identically. Parallel runs of one sweep wanting the same
+key wait for the first (an advisory file lock, POSIX only).
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 try:
@@ -29,58 +35,114 @@ except ImportError:             # not POSIX: no waiting, at worst the work is do
 import numpy as np
 
 from mocap.cameras.calibration_io import rig_to_dict
-from mocap.trackers.base import Frame
-from mocap.trackers.initialization import INITIALIZER_VERSION
+from mocap.trackers import initialization
+from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.contract import Initializer, initial_estimate_of
 
 
-def _key(tracker, frame: Frame) -> str:
-    h = hashlib.sha1()
-    body = tracker.body
-    h.update(json.dumps([body.name, list(body.dof_names), body.num_shape]).encode())
-    h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
-    h.update(json.dumps(rig_to_dict(tracker.rig), sort_keys=True, default=str).encode())
-    h.update(repr(tracker.init_settings).encode())
-    h.update(f"initializer-v{INITIALIZER_VERSION}".encode())
-    rng = getattr(tracker, "init_rng", None)
-    h.update(json.dumps(rng.bit_generator.state if rng is not None else None, sort_keys=True,
-                        default=str).encode())
-    return h.hexdigest()[:20]
+class SilhouetteStart:
+    """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`) of
+    ``body`` seen by ``rig``, with ``settings`` (:class:`InitSettings`) drawing from ``rng``.
+    info: seconds, the hypotheses and margin, ``initializer_version``."""
 
+    def __init__(self, body, rig, settings, rng: np.random.Generator):
+        self.body, self.rig, self.settings, self.rng = body, rig, settings, rng
 
-def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = None
-                     ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(chi (D,), alpha (K,), info) from ``tracker.initial_estimate(frame)``. info: seconds (of
-    the computation, also on a cache hit), cached (bool), initializer_version (trackers with the
-    silhouette initialiser: the ``INITIALIZER_VERSION`` that made the pose, cached or not), and the
-    initialiser's hypotheses and margin where it reports them. A tracker with
-    ``refine_initial(frame, chi, alpha) -> (chi, alpha, report)`` (the two-cue hybrid) refines the
-    pose (and shape) afterwards, outside the cache (whose key describes the initialiser only); a
-    non-empty report joins info with its seconds."""
-    chi, alpha, info = _cached_estimate(tracker, frame, cache)
-    if getattr(tracker, "init_settings", None) is not None:     # the silhouette initialiser's version
-        info = {**info, "initializer_version": INITIALIZER_VERSION}
-    refine = getattr(tracker, "refine_initial", None)
-    if refine is not None:
+    def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
         t = time.perf_counter()
-        chi, alpha, report = refine(frame, chi, alpha)
+        chi, alpha, diag = initialization.initialize_from_silhouettes(self.body, self.rig, frame.masks,
+                                                                     self.rng, self.settings)
+        info = {"seconds": time.perf_counter() - t,
+                **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")},
+                "initializer_version": initialization.INITIALIZER_VERSION}
+        return {0: initial_estimate_of(chi, alpha)}, info
+
+    def cache_key(self, frame: Frame) -> str | None:
+        if frame.masks is None:
+            return None
+        h = hashlib.sha1()
+        body = self.body
+        h.update(json.dumps([body.name, list(body.dof_names), body.num_shape]).encode())
+        h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
+        h.update(json.dumps(rig_to_dict(self.rig), sort_keys=True, default=str).encode())
+        h.update(repr(self.settings).encode())
+        h.update(f"initializer-v{initialization.INITIALIZER_VERSION}".encode())
+        h.update(json.dumps(self.rng.bit_generator.state, sort_keys=True, default=str).encode())
+        return h.hexdigest()[:20]
+
+    def random_state(self) -> dict | None:
+        return self.rng.bit_generator.state
+
+    def set_random_state(self, state: dict | None) -> None:
+        if state is not None:
+            self.rng.bit_generator.state = state
+
+
+class Refined:
+    """``start``, then ``refine(frame, chi, alpha) -> (chi, alpha, report)`` on person 0 (outside
+    any cache: its key describes ``start`` only); a non-empty report joins info with its
+    seconds."""
+
+    def __init__(self, start: Initializer, refine: Callable):
+        self.start, self.refine = start, refine
+
+    def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
+        est, info = self.start(frame)
+        t = time.perf_counter()
+        chi, alpha, report = self.refine(frame, est[0].chi, est[0].alpha)
         if report:
             info = {**info, **report, "refine_seconds": time.perf_counter() - t}
-    return chi, alpha, info
+        return {0: initial_estimate_of(chi, alpha)}, info
+
+    def cache_key(self, frame: Frame) -> str | None:
+        return None
+
+    def random_state(self) -> dict | None:
+        return self.start.random_state()
+
+    def set_random_state(self, state: dict | None) -> None:
+        self.start.set_random_state(state)
 
 
-def _cached_estimate(tracker, frame: Frame, cache) -> tuple[np.ndarray, np.ndarray, dict]:
-    if cache is None or frame.masks is None or getattr(tracker, "init_settings", None) is None:
-        return _compute(tracker, frame, None)       # only what the key describes is cached
-    path = Path(cache) / f"{_key(tracker, frame)}.npz"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with _locked(path.with_suffix(".lock")):
-        if path.is_file():
-            with np.load(path, allow_pickle=False) as z:
-                info = json.loads(str(z["info"]))
-                if "rng_state" in info and getattr(tracker, "init_rng", None) is not None:
-                    tracker.init_rng.bit_generator.state = info.pop("rng_state")
-                return z["chi"].copy(), z["alpha"].copy(), {**info, "cached": True}
-        return _compute(tracker, frame, path)
+class Cached:
+    """``start`` with its results kept in the folder ``cache`` (see the module docstring);
+    info gains ``cached`` (bool)."""
+
+    def __init__(self, start: Initializer, cache: str | os.PathLike | None):
+        self.start, self.cache = start, cache
+
+    def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
+        key = self.start.cache_key(frame) if self.cache is not None else None
+        if key is None:
+            est, info = self.start(frame)
+            return est, {**info, "cached": False}
+        path = Path(self.cache) / f"{key}.npz"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with _locked(path.with_suffix(".lock")):
+            if path.is_file():
+                with np.load(path, allow_pickle=False) as z:
+                    info = json.loads(str(z["info"]))
+                    self.start.set_random_state(info.pop("rng_state", None))
+                    est = {0: initial_estimate_of(z["chi"].copy(), z["alpha"].copy())}
+                    return est, {**info, "cached": True}
+            est, info = self.start(frame)
+            stored = dict(info)
+            state = self.start.random_state()
+            if state is not None:
+                stored["rng_state"] = state
+            tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
+            np.savez(tmp, chi=est[0].chi, alpha=est[0].alpha, info=json.dumps(stored, default=float))
+            os.replace(tmp, path)
+            return est, {**info, "cached": False}
+
+    def cache_key(self, frame: Frame) -> str | None:
+        return self.start.cache_key(frame)
+
+    def random_state(self) -> dict | None:
+        return self.start.random_state()
+
+    def set_random_state(self, state: dict | None) -> None:
+        self.start.set_random_state(state)
 
 
 @contextlib.contextmanager
@@ -96,18 +158,12 @@ def _locked(path: Path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
-def _compute(tracker, frame: Frame, path: Path | None) -> tuple[np.ndarray, np.ndarray, dict]:
-    t = time.perf_counter()
-    chi, alpha = tracker.initial_estimate(frame)
-    diag = getattr(tracker, "init_diagnostics", None) or {}
-    info = {"seconds": time.perf_counter() - t,
-            **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")}}
-    if path is not None:
-        stored = dict(info)
-        rng = getattr(tracker, "init_rng", None)
-        if rng is not None:
-            stored["rng_state"] = rng.bit_generator.state
-        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-        np.savez(tmp, chi=chi, alpha=alpha, info=json.dumps(stored, default=float))
-        os.replace(tmp, path)
-    return chi, alpha, {**info, "cached": False}
+def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(chi (D,), alpha (K,), info) of a single-person tracker's self-initialisation on ``frame``
+    (its :meth:`initializer` with ``cache``); a ValueError when it has none."""
+    start = tracker.initializer(cache)
+    if start is None:
+        raise ValueError(f"tracker {tracker.name!r} cannot initialise itself")
+    est, info = start(frame)
+    return est[0].chi, est[0].alpha, info

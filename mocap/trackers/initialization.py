@@ -317,15 +317,21 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
 
 
 class SilhouetteInitialisation:
-    """Mixin of the silhouette trackers: ``initial_estimate`` from frame 0's masks, and the
-    validation of an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``."""
+    """Mixin of the silhouette trackers: their self-initialisation from a frame's masks
+    (``initializer``: :class:`mocap.trackers.init_cache.SilhouetteStart`) and the validation of
+    an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``."""
+
+    def initializer(self, cache=None):
+        """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
+        ``cache`` (None: not cached)."""
+        from mocap.trackers.init_cache import Cached, SilhouetteStart
+
+        return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng), cache)
 
     def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
         """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
-        chi, alpha, diag = initialize_from_silhouettes(self.body, self.rig, frame.masks, self.init_rng,
-                                                       self.init_settings)
-        self.init_diagnostics = diag
-        return chi, alpha
+        est, _ = self.initializer()(frame)
+        return est[0].chi, est[0].alpha
 
     def checked_pose(self, chi: np.ndarray) -> np.ndarray:
         chi = np.asarray(chi, np.float64)

@@ -19,13 +19,14 @@ from mocap.local.sift import SiftTracker
 from mocap.local.solver import PointLines, merge  # noqa: F401  (merge: re-exported)
 from mocap.settings import fields_of, with_overrides
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.contract import Needs, OnePerson
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
 from mocap.trackers.tracker_settings import LocalSettings, LocalStepSettings
 
 
-class LocalTracker(SilhouetteInitialisation):
+class LocalTracker(SilhouetteInitialisation, OnePerson):
     """Local optimisation only: fast, accurate while the motion is slow, cannot recover.
 
     settings: :class:`LocalSettings` (or the local step alone, :class:`LocalStepSettings`,
@@ -33,6 +34,8 @@ class LocalTracker(SilhouetteInitialisation):
     (e.g. ``sift={"enabled": False}``). ``settings.shape``: the shape refinement (off by
     default): every ``every`` frames the shape is searched again on recent keyframes, their
     poses held (the estimate of that frame onwards carries the new shape)."""
+
+    needs = Needs(masks=True)
 
     def __init__(self, body: BodyModel, rig: Rig, settings: LocalStepSettings | None = None,
                  name: str = "local", rng: np.random.Generator | None = None, **overrides):
@@ -109,9 +112,11 @@ class LocalTracker(SilhouetteInitialisation):
         return chi, shape
 
     def local_step(self, frame: Frame, start: np.ndarray, free: np.ndarray | None = None,
-                   extra: Callable[[np.ndarray], PointLines] | None = None) -> tuple[np.ndarray, LocalTrace]:
+                   extra: Callable[[np.ndarray], PointLines] | None = None,
+                   iterations: int | None = None) -> tuple[np.ndarray, LocalTrace]:
         """Optimise from ``start`` on this frame; the trace holds the correspondence counts.
-        ``extra``: pose (D,) -> more correspondences beside the contours' (the hybrid's keypoints)."""
+        ``extra``: pose (D,) -> more correspondences beside the contours' (the hybrid's keypoints);
+        ``iterations``: the optimiser's (None: the tracker's ``iterations``)."""
         if frame.masks is None:
             raise ValueError(f"frame {frame.index}: the local tracker needs silhouette masks")
         obs = observed_contours(frame.masks)
@@ -129,7 +134,8 @@ class LocalTracker(SilhouetteInitialisation):
                 corr = merge([corr, sift_pairs.correspondences(verts)])
             return corr, info
 
-        chi, opt = optimize_pose(self.shaped, start, correspond, self.iterations, self.tolerance,
+        iterations = self.iterations if iterations is None else iterations
+        chi, opt = optimize_pose(self.shaped, start, correspond, iterations, self.tolerance,
                                  self.damping, free=free, energy_tolerance=self.energy_tolerance,
                                  extra=extra)
         return chi, LocalTrace.from_optimizer(opt, sift_info)

@@ -1,24 +1,43 @@
-"""Running a tracker over a sequence, and the initial pose of a controlled experiment."""
+"""The frame loop, written once (:func:`run_frames`: ``mocap track``, the other tracking commands
+and :func:`mocap.track`), and the starts a run can be given (:func:`run_start`): ground truth
+plus noise (a controlled experiment), a given pose, or the tracker's own self-initialisation."""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.threads import thread_budget
-from mocap.trackers.base import Estimate, Frame, Tracker
-from mocap.trackers.diagnostics import StepDiagnostics
+from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.contract import FrameEstimate, Initializer, Tracker, initial_estimate_of
+
+#: on_frame(f, estimate of the frame {person id: estimate}, step seconds)
+OnFrame = Callable[[int, FrameEstimate, float], None]
 
 
 @dataclass(frozen=True)
 class TrackResult:
-    estimates: list[Estimate]
-    seconds: list[float]          # tracking time per frame (step only)
+    """A run's tracks: ``tracks`` {person id: {frame: estimate}} (frame 0: the start),
+    ``seconds`` (F,) tracking time per frame (step only; frame 0: 0), ``several_people``: the
+    tracker's; ``frames``: F; ``live``: per frame, the ids of the people the tracker answered
+    for (sorted). ``estimates``: person 0's estimate per frame (a single-person run)."""
+
+    tracks: dict[int, dict[int, Estimate]]
+    seconds: list[float]
+    several_people: bool = False
+    frames: int = 0
+    live: list[tuple[int, ...]] = field(default_factory=list)
+
+    @property
+    def estimates(self) -> list[Estimate]:
+        if self.several_people:
+            raise ValueError("a several-people run has no single list of estimates: use result.tracks")
+        return [self.tracks[0][f] for f in sorted(self.tracks.get(0, {}))]
 
 
 def noisy_initial_pose(body: BodyModel, chi: np.ndarray, rng: np.random.Generator,
@@ -33,13 +52,54 @@ def noisy_initial_pose(body: BodyModel, chi: np.ndarray, rng: np.random.Generato
     return np.clip(chi, lo, hi)
 
 
-def search_budget(tracker: Tracker) -> dict:
-    """Particles, layers and energy terms of a tracker's global search (the APF of a hybrid
-    tracker; zeros for a tracker without one), as the tracker holds them."""
-    settings, weights = getattr(tracker, "settings", None), getattr(tracker, "weights", None)
-    return {"particles": settings.particles if settings else 0,
-            "layers": settings.layers if settings else 0,
-            "energy_terms": list(weights.terms) if weights else []}
+@dataclass(frozen=True)
+class GivenStart:
+    """A start at a given pose chi (D,) and shape alpha (K,) for person 0; never cached."""
+
+    chi: np.ndarray
+    alpha: np.ndarray
+    info: dict = field(default_factory=dict)
+
+    def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
+        return {0: initial_estimate_of(self.chi, self.alpha)}, dict(self.info)
+
+    def cache_key(self, frame: Frame) -> str | None:
+        return None
+
+    def random_state(self) -> dict | None:
+        return None
+
+    def set_random_state(self, state: dict | None) -> None:
+        pass
+
+
+#: the ways a run starts (``init.mode``)
+INIT_MODES = ("gt_noise", "tracker")
+
+
+def run_start(mode: str, tracker: Tracker, body: BodyModel, seq: Sequence, rng: np.random.Generator,
+              noise_deg: float = 3.0, noise_translation: float = 0.02, cache=None) -> Initializer:
+    """The start of a run: ``gt_noise``, the sequence's ground truth of frame 0 plus noise
+    (:func:`noisy_initial_pose`, drawn from ``rng`` now) with its shape; ``tracker``, the
+    tracker's self-initialisation (cached in the folder ``cache``). One-line ValueErrors for a
+    start the data or tracker cannot give."""
+    if mode == "gt_noise":
+        if tracker.several_people:
+            raise ValueError(f"tracker {tracker.name!r} initialises every person itself: run with "
+                             f"init.mode=tracker (got init.mode={mode})")
+        if seq.gt is None or seq.gt.chi is None:
+            raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
+        return GivenStart(noisy_initial_pose(body, seq.gt.chi[0], rng, noise_deg, noise_translation),
+                          seq.gt.alpha)
+    if mode == "tracker":
+        if cache and tracker.several_people:
+            raise ValueError(f"tracker {tracker.name!r} does not use init.cache (got {cache!r}): "
+                             "leave it null")
+        start = tracker.initializer(cache)
+        if start is None:
+            raise ValueError(f"tracker {tracker.name!r} cannot initialise itself: use init.mode=gt_noise")
+        return start
+    raise ValueError(f"init.mode must be one of {INIT_MODES}, got {mode!r}")
 
 
 def frame_of(seq: Sequence, f: int) -> Frame:
@@ -49,35 +109,41 @@ def frame_of(seq: Sequence, f: int) -> Frame:
                  detections=None if seq.detections is None else seq.detections.select(f))
 
 
+def run_frames(tracker: Tracker, seq: Sequence, initial: FrameEstimate, frames: int | None = None,
+               on_frame: OnFrame | None = None, threads: int | None = None) -> TrackResult:
+    """Start ``tracker`` on frame 0 from ``initial`` (its estimate is frame 0's) and track frames
+    1..F-1 (F: ``frames``, at most the sequence's; None: all); ``on_frame`` sees each frame's
+    estimate as it comes. threads: thread budget of the numeric kernels while tracking
+    (:func:`mocap.threads.thread_budget`; None: the libraries' defaults)."""
+    with thread_budget(threads):
+        F = seq.num_frames if frames is None else min(frames, seq.num_frames)
+        first = dict(tracker.begin(frame_of(seq, 0), initial))
+        tracks: dict[int, dict[int, Estimate]] = {pid: {0: est} for pid, est in first.items()}
+        seconds = [0.0]
+        live = [tuple(sorted(first))]
+        if on_frame is not None:
+            on_frame(0, first, seconds[0])
+        for f in range(1, F):
+            t = time.perf_counter()
+            out = dict(tracker.track(frame_of(seq, f)))
+            seconds.append(time.perf_counter() - t)
+            for pid, est in out.items():
+                if not np.all(np.isfinite(est.chi)):
+                    who = f" of person {pid}" if tracker.several_people else ""
+                    raise FloatingPointError(f"{tracker.name}: non-finite pose{who} at frame {f}")
+                tracks.setdefault(pid, {})[f] = est
+            live.append(tuple(sorted(out)))
+            if on_frame is not None:
+                on_frame(f, out, seconds[-1])
+        final = tracker.final_tracks(tracks)
+    return TrackResult({pid: dict(t) for pid, t in final.items()}, seconds, tracker.several_people, F, live)
+
+
 def track_sequence(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha: np.ndarray,
                    frames: int | None = None,
                    on_frame: Callable[[int, Estimate, float], None] | None = None,
                    threads: int | None = None) -> TrackResult:
-    """Initialise on frame 0 (its estimate is the initial pose) and track frames 1..F-1.
-
-    threads: thread budget of the numeric kernels while tracking (BLAS / OpenMP, numba,
-    OpenCV; :func:`mocap.threads.thread_budget`); None leaves the libraries' defaults.
-    """
-    with thread_budget(threads):
-        return _track(tracker, seq, init_chi, alpha, frames, on_frame)
-
-
-def _track(tracker: Tracker, seq: Sequence, init_chi: np.ndarray, alpha: np.ndarray,
-           frames: int | None, on_frame: Callable[[int, Estimate, float], None] | None) -> TrackResult:
-    F = seq.num_frames if frames is None else min(frames, seq.num_frames)
-    tracker.initialize(init_chi, alpha)
-    estimates = [Estimate(chi=np.asarray(init_chi, np.float64), alpha=np.asarray(alpha),
-                          diagnostics=StepDiagnostics(initial=True))]
-    seconds = [0.0]
-    if on_frame is not None:
-        on_frame(0, estimates[0], 0.0)
-    for f in range(1, F):
-        t = time.perf_counter()
-        est = tracker.step(frame_of(seq, f))
-        seconds.append(time.perf_counter() - t)
-        if not np.all(np.isfinite(est.chi)):
-            raise FloatingPointError(f"{tracker.name}: non-finite pose at frame {f}")
-        estimates.append(est)
-        if on_frame is not None:
-            on_frame(f, est, seconds[-1])
-    return TrackResult(estimates, seconds)
+    """:func:`run_frames` of a single-person tracker started at pose ``init_chi`` (D,) and shape
+    ``alpha`` (K,); ``on_frame(f, estimate, seconds)`` sees person 0's estimates."""
+    each = None if on_frame is None else (lambda f, out, s: on_frame(f, out[0], s))
+    return run_frames(tracker, seq, {0: initial_estimate_of(init_chi, alpha)}, frames, each, threads)

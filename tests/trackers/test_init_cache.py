@@ -7,24 +7,47 @@ import numpy as np
 
 from mocap.body import load_body
 from mocap.cameras import rig_from_config
+from mocap.trackers import initialization
 from mocap.trackers.base import Frame
-from mocap.trackers.init_cache import initial_estimate
+from mocap.trackers.contract import OnePerson
+from mocap.trackers.init_cache import Cached, SilhouetteStart, initial_estimate
 from mocap.trackers.initialization import INITIALIZER_VERSION
 
 
-class Counting:
-    """A stand-in tracker whose initialisation draws from its init_rng."""
+class Counting(OnePerson):
+    """A stand-in tracker whose self-initialisation (the silhouette start, its computation
+    replaced by a draw from the generator) counts its calls."""
+
+    name = "counting"
 
     def __init__(self, body, rig, seed=0):
         self.body, self.rig, self.init_settings = body, rig, ("settings", 1)
         self.init_rng = np.random.default_rng(seed)
         self.calls = 0
+        self.cacheable = True
 
-    def initial_estimate(self, frame):
-        self.calls += 1
-        chi = self.init_rng.normal(size=self.body.num_dofs)
-        self.init_diagnostics = {"margin": 0.5, "hypotheses": [{"energy": 1.0}], "other": 3}
-        return chi, np.zeros(self.body.num_shape)
+    def initializer(self, cache=None):
+        return Cached(CountingStart(self), cache)
+
+
+class CountingStart(SilhouetteStart):
+    def __init__(self, tracker):
+        super().__init__(tracker.body, tracker.rig, tracker.init_settings, tracker.init_rng)
+        self.tracker = tracker
+
+    def __call__(self, frame):
+        import unittest.mock
+
+        def compute(body, rig, masks, rng, settings):
+            self.tracker.calls += 1
+            return (rng.normal(size=body.num_dofs), np.zeros(body.num_shape),
+                    {"margin": 0.5, "hypotheses": [{"energy": 1.0}], "other": 3})
+
+        with unittest.mock.patch.object(initialization, "initialize_from_silhouettes", compute):
+            return super().__call__(frame)
+
+    def cache_key(self, frame):
+        return super().cache_key(frame) if self.tracker.cacheable else None
 
 
 def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path, monkeypatch):
@@ -51,9 +74,7 @@ def test_cache_hit_equals_the_computation_and_advances_the_random_state(tmp_path
     assert (c.calls, d.calls, e.calls) == (1, 1, 1)
     assert len(list(tmp_path.glob("*.npz"))) == 4 and not list(tmp_path.glob(".*tmp*"))
     # a changed initialiser (its version raised): computed anew, not served from the cache
-    import mocap.trackers.init_cache as init_cache
-
-    monkeypatch.setattr(init_cache, "INITIALIZER_VERSION", init_cache.INITIALIZER_VERSION + 1)
+    monkeypatch.setattr(initialization, "INITIALIZER_VERSION", INITIALIZER_VERSION + 1)
     f = Counting(body, rig)
     initial_estimate(f, frame, tmp_path)
     assert f.calls == 1 and len(list(tmp_path.glob("*.npz"))) == 5
@@ -69,10 +90,10 @@ def test_without_a_cache_nothing_is_written(tmp_path, monkeypatch):
     assert not list(tmp_path.iterdir())
 
 
-def test_a_tracker_without_init_settings_is_never_cached(tmp_path):
+def test_a_start_without_a_cache_key_is_never_cached(tmp_path):
     body, rig = load_body("paper22"), rig_from_config("ring4_small")
     t = Counting(body, rig)
-    del t.init_settings
+    t.cacheable = False
     masks = np.ones((len(rig.names), 4, 4), bool)
     frame = Frame(index=0, masks=masks, images=None, detections=None)
     initial_estimate(t, frame, tmp_path)
@@ -81,18 +102,17 @@ def test_a_tracker_without_init_settings_is_never_cached(tmp_path):
 
 
 def test_the_key_changes_with_the_initialiser_version_and_its_settings(monkeypatch):
-    import mocap.trackers.init_cache as init_cache
     from mocap.trackers.initialization import InitSettings
 
     body, rig = load_body("paper22"), rig_from_config("ring4_small")
     frame = Frame(index=0, masks=np.ones((len(rig.names), 4, 4), bool), images=None, detections=None)
-    t = Counting(body, rig)
-    t.init_settings = InitSettings()
-    key = init_cache._key(t, frame)
-    assert init_cache._key(t, frame) == key
+
+    def key(settings):
+        return SilhouetteStart(body, rig, settings, np.random.default_rng(0)).cache_key(frame)
+
+    before = key(InitSettings())
+    assert key(InitSettings()) == before
     for changed in (InitSettings(energy_mesh=None), InitSettings(prune_margin=0.123)):
-        t.init_settings = changed
-        assert init_cache._key(t, frame) != key
-    t.init_settings = InitSettings()
-    monkeypatch.setattr(init_cache, "INITIALIZER_VERSION", init_cache.INITIALIZER_VERSION - 1)
-    assert init_cache._key(t, frame) != key         # the results of version 2 are not served
+        assert key(changed) != before
+    monkeypatch.setattr(initialization, "INITIALIZER_VERSION", INITIALIZER_VERSION - 1)
+    assert key(InitSettings()) != before         # the results of version 2 are not served

@@ -33,6 +33,7 @@ Ids are never reused. ``births`` and ``deaths`` record, per frame, the ids born 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -42,6 +43,7 @@ from scipy.optimize import linear_sum_assignment
 from mocap.data.sequence import Detections
 from mocap.energy.markers import arrange_detections, pinhole_project
 from mocap.trackers.base import Estimate, Frame
+from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.markers.associate import Skeletons, associate_people, person_detections, skeletons_of
 from mocap.trackers.markers.settings import PeopleOptions
@@ -83,9 +85,15 @@ def _only(det: Detections, keep: np.ndarray) -> Detections:
 
 class PeopleTracker:
     """make_tracker: () -> a fresh MarkerAPFTracker (same body, rig, settings; own rng);
-    options: :class:`~mocap.trackers.markers.settings.PeopleOptions`. See the module docstring."""
+    options: :class:`~mocap.trackers.markers.settings.PeopleOptions`. See the module docstring.
+
+    As a :class:`~mocap.trackers.contract.Tracker`: its start (``initializer``) finds and starts
+    every person of the first frame (:meth:`start`), ``track`` is :meth:`step`, and its final
+    tracks are :meth:`estimates_by_person` (a departed person's coasted frames dropped)."""
 
     several_people = True
+    needs = Needs(detections=True)
+    budget = SearchBudget()
 
     def __init__(self, make_tracker: Callable[[], MarkerAPFTracker], options: PeopleOptions | None = None,
                  select: str | int | Sequence[float] = "all", name: str = "marker_people"):
@@ -298,7 +306,43 @@ class PeopleTracker:
                 self.candidates.append(k)
         return born
 
+    # -- the run's contract (mocap.trackers.contract) ----------------------------------------
+    def initializer(self, cache=None) -> PeopleStart:
+        return PeopleStart(self)
+
+    def begin(self, frame: Frame, initial: FrameEstimate) -> FrameEstimate:
+        return initial          # the people were started by the initializer
+
+    def track(self, frame: Frame) -> FrameEstimate:
+        return self.step(frame)
+
+    def final_tracks(self, tracks: Tracks) -> Tracks:
+        return self.estimates_by_person()
+
     # -- results -----------------------------------------------------------------------
     def estimates_by_person(self) -> dict[int, dict[int, Estimate]]:
         """{track id: {frame: estimate}} of every track (ended ones included)."""
         return {t.id: dict(t.estimates) for t in self.tracks}
+
+
+class PeopleStart:
+    """The several-people start-up (:meth:`PeopleTracker.start`) as an
+    :class:`~mocap.trackers.contract.Initializer`: {track id: initial estimate}; info: its
+    seconds. Never cached."""
+
+    def __init__(self, people: PeopleTracker):
+        self.people = people
+
+    def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
+        t = time.perf_counter()
+        tracks = self.people.start(frame)
+        return {t_.id: t_.estimates[frame.index] for t_ in tracks}, {"seconds": time.perf_counter() - t}
+
+    def cache_key(self, frame: Frame) -> str | None:
+        return None
+
+    def random_state(self) -> dict | None:
+        return None
+
+    def set_random_state(self, state: dict | None) -> None:
+        pass

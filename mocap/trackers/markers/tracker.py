@@ -14,6 +14,7 @@ markers and on OpenPose keypoints.
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -34,6 +35,7 @@ from mocap.energy.markers import (
 from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Frame
+from mocap.trackers.contract import Needs, OnePerson, SearchBudget
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
 from mocap.trackers.markers.anneal import PartGroup, part_groups, run_annealing
 from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
@@ -55,8 +57,10 @@ from mocap.trackers.markers.startup import (
 from mocap.trackers.step import AnnealedStep
 
 
-class MarkerAPFTracker(AnnealedStep):
+class MarkerAPFTracker(AnnealedStep, OnePerson):
     """Tracks one subject from 2D detections (see the module docstring)."""
+
+    needs = Needs(detections=True)
 
     def __init__(self, body: BodyModel, rig: Rig, settings: MarkerSettings, rng: np.random.Generator,
                  name: str = "marker_apf"):
@@ -89,6 +93,16 @@ class MarkerAPFTracker(AnnealedStep):
         self._refined: RefineTrace | None = None
 
     # -- set-up ------------------------------------------------------------------------
+    @property
+    def budget(self) -> SearchBudget:
+        return SearchBudget(self.settings.particles, self.settings.layers)
+
+    def initializer(self, cache=None):
+        """:meth:`initial_estimate` as a start (never cached: its key would need the detections)."""
+        from mocap.trackers.init_cache import Cached
+
+        return Cached(MarkerStart(self), cache)
+
     def check_sequence(self, seq) -> None:
         """Raise a ValueError, before any work starts, when ``seq`` cannot be tracked: no
         detections at all, none in the first frame, or no detection label the landmark set
@@ -310,3 +324,27 @@ class MarkerAPFTracker(AnnealedStep):
         return StepDiagnostics(energy_terms=terms, anneal=trace, landmarks=report, timings=timings,
                                marker_refine=self._refined)
 
+
+
+class MarkerStart:
+    """The marker tracker's start-up (:meth:`MarkerAPFTracker.initial_estimate`) as an
+    :class:`~mocap.trackers.contract.Initializer`; info: its seconds. Never cached."""
+
+    def __init__(self, tracker: MarkerAPFTracker):
+        self.tracker = tracker
+
+    def __call__(self, frame: Frame):
+        from mocap.trackers.contract import initial_estimate_of
+
+        t = time.perf_counter()
+        chi, alpha = self.tracker.initial_estimate(frame)
+        return {0: initial_estimate_of(chi, alpha)}, {"seconds": time.perf_counter() - t}
+
+    def cache_key(self, frame: Frame) -> str | None:
+        return None
+
+    def random_state(self) -> dict | None:
+        return None
+
+    def set_random_state(self, state: dict | None) -> None:
+        pass
