@@ -12,10 +12,13 @@ arguments override their settings exactly as ``tracker.<key>=...`` does on the c
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from mocap.body import BodyModel, load_body
 from mocap.data.sequence import Sequence
+from mocap.trackers.contract import Tracker
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import GivenStart, TrackResult, frame_of, run_frames, run_start
 
@@ -29,10 +32,13 @@ def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: st
     return make(body=body, cameras=cameras, motion=motion, frames=frames, fps=fps, seed=seed, **options)
 
 
-def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None = None, seed: int = 0,
+def track(sequence: Sequence, tracker: str | Callable[..., Tracker] = "hybrid", *,
+          body: BodyModel | None = None, seed: int = 0,
           init: str | np.ndarray = "auto", alpha: np.ndarray | None = None, frames: int | None = None,
           noise_deg: float = 3.0, noise_translation: float = 0.02, **settings) -> TrackResult:
-    """Track ``sequence`` with the tracker named ``tracker`` and return its tracks (person id ->
+    """Track ``sequence`` with the tracker named ``tracker`` (a preset, or a tracker factory of
+    one's own, ``tracker(body=, rig=, rng=, **settings)`` -> a
+    :class:`mocap.trackers.contract.Tracker`) and return its tracks (person id ->
     {frame: estimate}; ``result.estimates``: one per frame of a single-person tracker, frame 0
     the initial pose) and step times, as ``mocap track`` does (the same start and frame loop).
 
@@ -44,7 +50,8 @@ def track(sequence: Sequence, tracker: str = "hybrid", *, body: BodyModel | None
     """
     body = body if body is not None else load_body("paper22")
     rng = np.random.default_rng(seed)
-    t = make_tracker(tracker, body=body, rig=sequence.rig, rng=np.random.default_rng([seed, 1]), **settings)
+    build = (lambda **kw: make_tracker(tracker, **kw)) if isinstance(tracker, str) else tracker
+    t = build(body=body, rig=sequence.rig, rng=np.random.default_rng([seed, 1]), **settings)
     t.check_sequence(sequence)
     if isinstance(init, str) and init == "auto":
         has_pose = sequence.gt is not None and sequence.gt.chi is not None

@@ -11,7 +11,7 @@ FORMATS = {"bvh": ".bvh", "trc": ".trc", "gltf": ".glb", "c3d": ".c3d"}
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
                overwrite: bool = False, body=None, markers: str = "landmarks",
-               require_manifest: bool = True) -> Path:
+               require_manifest: bool = True, person: int | None = None) -> Path:
     """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
     ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
     (its ``metrics.json``). ``markers`` (TRC, C3D): landmarks (the body's default set),
@@ -19,7 +19,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     renamed; an existing output is kept unless ``overwrite``. The run folder must be a
     complete run (a valid manifest.json, :mod:`mocap.run_folder.manifest`) unless
     ``require_manifest`` is False; the output path is checked (its folder exists, its suffix
-    is the format's) before any work."""
+    is the format's) before any work. ``person``: the track id to export of a several-people
+    run (its motion.npz has a person axis; :func:`mocap.export.people_motion.person_motion`)."""
     from mocap.export.motion import load_motion
     from mocap.run_folder.manifest import require_complete
 
@@ -42,7 +43,12 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
         raise ValueError(f"output {out} is a folder, not a {FORMATS[fmt]} file")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
-    motion = load_motion(run_dir / "motion.npz")
+    if person is None:
+        motion = load_motion(run_dir / "motion.npz")
+    else:
+        from mocap.export.people_motion import person_motion
+
+        motion = person_motion(run_dir / "motion.npz", person)
     tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
     try:
         if fmt == "bvh":

@@ -105,3 +105,31 @@ def load_people_motion(path: str | Path) -> dict[str, np.ndarray]:
         if a[k].shape[:2] != (F, P):
             raise MotionFileError(f"{path}: field '{k}' is {a[k].shape}, expected ({F}, {P}, ...)")
     return a
+
+
+def person_motion(path: str | Path, person: int):
+    """Person ``person`` (a track id) of a several-people motion.npz as a single-person
+    :class:`mocap.export.motion.Motion` over the frames the person is live (what the exporters
+    write); an unknown id raises :class:`MotionFileError` naming the ids there are."""
+    from mocap.export.motion import INFO, Motion
+
+    a = load_people_motion(path)
+    ids = [int(i) for i in a["person_ids"]]
+    if person not in ids:
+        raise MotionFileError(f"{path}: no person {person} (the run's people: {ids})")
+    p = ids.index(person)
+    fr = np.flatnonzero(a["live"][:, p])
+    pick = lambda k: a[k][fr, p]          # noqa: E731
+    names = lambda k: tuple(str(n) for n in a[k])  # noqa: E731
+    per_frame = {k: pick(k) for k in ("energy", "reprojection_px", "initial", "lost", "tracker_landmarks")
+                 if k in a}
+    per_frame["seconds"] = a["seconds"][fr]
+    if "tracker_landmark_names" in a:
+        per_frame["tracker_landmark_names"] = a["tracker_landmark_names"]
+    info = {k: (int(a[k]) if k == "seed" else str(a[k])) for k in INFO if k in a}
+    return Motion(fps=float(a["fps"]), frame_index=a["frame_index"][fr], timestamps=a["timestamps"][fr],
+                  chi=pick("chi"), dof_names=names("dof_names"), alpha=pick("alpha"), joints=pick("joints"),
+                  joint_names=names("joint_names"), joint_parents=a["joint_parents"],
+                  joint_rotations=pick("joint_rotations"), rest_joints=a["rest_joints"][p],
+                  root_transform=pick("root_transform"), landmarks=pick("landmarks"),
+                  landmark_names=names("landmark_names"), per_frame=per_frame, info=info)

@@ -12,10 +12,16 @@ in the frame, and says so (``several_people``), so the run writes the several-pe
 file and metrics. Everything the run asks of a tracker is written here: the run probes no
 attribute.
 
-A user's own tracker implements :class:`Tracker` (usually: subclass :class:`OnePerson`, write
-``initialize`` and ``step``) and is named in a Hydra config's ``_target_``
-(``mocap_cli/conf/tracker/*.yaml``; a config folder of one's own joins with
-``hydra.searchpath``, see ``mocap_cli/conf/tracking.yaml``).
+A tracker of one's own implements :class:`Tracker` (usually: subclass :class:`OnePerson`, write
+``initialize`` and ``step``), and a factory ``make(*, body, rig, rng, keep_particles, **settings)``
+returns it. Then, with nothing registered in the package:
+
+- ``mocap track --config-dir MY_CONF tracker=mine``: ``MY_CONF/tracker/mine.yaml`` names the
+  factory in ``_target_`` with its settings (Hydra's ``--config-dir`` adds a config folder to
+  the search path, for every Hydra command: ``mocap recovery``, sweeps with ``--multirun``);
+- ``mocap.track(seq, make, ...)`` in Python.
+
+``tests/own_tracker/`` is such a tracker, for one person and for several.
 """
 
 from __future__ import annotations

@@ -79,7 +79,7 @@ class FailureInjection(OnePerson):
     def __init__(self, tracker: Tracker, body: BodyModel, skips: Sequence[FrameSkip] = (),
                  perturbations: Sequence[Perturbation] = (), rng: np.random.Generator | None = None):
         self.tracker, self.body = tracker, body
-        self.name, self.needs = tracker.name, tracker.needs
+        self.name = tracker.name
         self.skipped = {f for s in skips for f in s.frames}
         self.perturbations = {p.at: p for p in perturbations}
         if len(self.perturbations) != len(perturbations):

@@ -28,6 +28,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--overwrite", action="store_true", help="replace an existing output file")
     p.add_argument("--markers", default="landmarks", choices=["landmarks", "joints", "tracker"],
                    help="TRC/C3D points: the body's landmarks, its joints, or a marker tracker's own")
+    p.add_argument("--person", type=int, default=None,
+                   help="a several-people run: the person (track id, metrics.json's people) to export")
     p.add_argument("--accept-unverified", action="store_true",
                    help="export a run folder without a valid manifest.json (written before manifests)")
     args = p.parse_args(argv)
@@ -39,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
         if problem is not None:
             print(f"WARNING: {args.run_dir}: exporting an unverified run ({problem})", file=sys.stderr)
     out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers,
-                     require_manifest=not args.accept_unverified)
+                     require_manifest=not args.accept_unverified, person=args.person)
     print(f"wrote {out} ({time.perf_counter() - t:.2f} s)")
     return 0
 
