@@ -58,7 +58,7 @@ from mocap.run_folder.people import people_metrics
 from mocap.run_folder.settings import INIT_MODES, RunSettings, check_settings  # noqa: F401  (re-exported)
 from mocap.threads import resolve_threads, thread_budget
 from mocap.trackers.contract import Tracker
-from mocap.trackers.run import TrackResult, frame_of, run_frames, run_start
+from mocap.trackers.run import TrackResult, frame_of, require_pose, run_frames, run_start
 
 #: wrap(tracker, body, seq): the tracker to step instead
 Wrap = Callable[[Tracker, BodyModel, Sequence], Tracker]
@@ -185,8 +185,8 @@ def _prepare(settings: RunSettings, threads, make_body, make_sequence, make_trac
         raise ValueError(f"setting frames = {frames} is beyond the data: {seq.name!r} has {seq.num_frames} "
                          "frames (frames=all or frames=null tracks every frame)")
     init = settings.init
-    if (seq.gt is None or seq.gt.chi is None) and init.mode == "gt_noise":
-        raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
+    if init.mode == "gt_noise":
+        require_pose(seq)           # before the tracker is built
     rng = np.random.default_rng(settings.seed)
     tracker = make_tracker(body=body, rig=seq.rig, rng=np.random.default_rng([settings.seed, 1]),
                            keep_particles=settings.recording.keep_particles)

@@ -77,6 +77,12 @@ class GivenStart:
 INIT_MODES = ("gt_noise", "tracker")
 
 
+def require_pose(seq: Sequence) -> None:
+    """A one-line ValueError when ``seq`` has no ground-truth pose to start from."""
+    if seq.gt is None or seq.gt.chi is None:
+        raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
+
+
 def run_start(mode: str, tracker: Tracker, body: BodyModel, seq: Sequence, rng: np.random.Generator,
               noise_deg: float = 3.0, noise_translation: float = 0.02, cache=None) -> Initializer:
     """The start of a run: ``gt_noise``, the sequence's ground truth of frame 0 plus noise
@@ -84,11 +90,10 @@ def run_start(mode: str, tracker: Tracker, body: BodyModel, seq: Sequence, rng: 
     tracker's self-initialisation (cached in the folder ``cache``). One-line ValueErrors for a
     start the data or tracker cannot give."""
     if mode == "gt_noise":
+        require_pose(seq)
         if tracker.several_people:
             raise ValueError(f"tracker {tracker.name!r} initialises every person itself: run with "
                              f"init.mode=tracker (got init.mode={mode})")
-        if seq.gt is None or seq.gt.chi is None:
-            raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
         return GivenStart(noisy_initial_pose(body, seq.gt.chi[0], rng, noise_deg, noise_translation),
                           seq.gt.alpha)
     if mode == "tracker":
