@@ -20,7 +20,7 @@ from mocap.body import BodyModel, load_body
 from mocap.data.sequence import Sequence
 from mocap.trackers.contract import Tracker
 from mocap.trackers.presets import make_tracker
-from mocap.trackers.run import GivenStart, TrackResult, frame_of, run_frames, run_start
+from mocap.trackers.run import GivenStart, StartSettings, TrackResult, frame_of, run_frames, run_start
 
 
 def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: str = "walk",
@@ -35,7 +35,8 @@ def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: st
 def track(sequence: Sequence, tracker: str | Callable[..., Tracker] = "hybrid", *,
           body: BodyModel | None = None, seed: int = 0,
           init: str | np.ndarray = "auto", alpha: np.ndarray | None = None, frames: int | None = None,
-          noise_deg: float = 3.0, noise_translation: float = 0.02, **settings) -> TrackResult:
+          noise_deg: float = StartSettings.noise_deg,
+          noise_translation: float = StartSettings.noise_translation, **settings) -> TrackResult:
     """Track ``sequence`` with the tracker named ``tracker`` (a preset, or a tracker factory of
     one's own, ``tracker(body=, rig=, rng=, **settings)`` -> a
     :class:`mocap.trackers.contract.Tracker`) and return its tracks (person id ->

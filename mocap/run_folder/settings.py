@@ -20,27 +20,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mocap.recording.factory import RecordingSettings, recording_settings
-from mocap.trackers.run import INIT_MODES
+from mocap.trackers.run import INIT_MODES, StartSettings  # noqa: F401  (INIT_MODES: re-exported)
 
 RESUME_ON_CHANGE = ("rerun", "fail")
 
 
 def _is_int(value) -> bool:
     return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
-@dataclass(frozen=True)
-class StartSettings:
-    """``init.*``: how the run starts (:func:`mocap.trackers.run.run_start`)."""
-
-    mode: str = "gt_noise"
-    noise_deg: float = 3.0
-    noise_translation: float = 0.02
-    cache: str | None = None
-
-    def __post_init__(self):
-        if self.mode not in INIT_MODES:
-            raise ValueError(f"init.mode must be one of {INIT_MODES}, got {self.mode!r}")
 
 
 @dataclass(frozen=True)

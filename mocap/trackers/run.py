@@ -77,6 +77,22 @@ class GivenStart:
 INIT_MODES = ("gt_noise", "tracker")
 
 
+@dataclass(frozen=True)
+class StartSettings:
+    """``init.*``: how a run starts (:func:`run_start`): ``mode``, the noise of a ground-truth
+    start (degrees on joint angles, metres on the position), the self-initialisation's cache
+    folder."""
+
+    mode: str = "gt_noise"
+    noise_deg: float = 3.0
+    noise_translation: float = 0.02
+    cache: str | None = None
+
+    def __post_init__(self):
+        if self.mode not in INIT_MODES:
+            raise ValueError(f"init.mode must be one of {INIT_MODES}, got {self.mode!r}")
+
+
 def require_pose(seq: Sequence) -> None:
     """A one-line ValueError when ``seq`` has no ground-truth pose to start from."""
     if seq.gt is None or seq.gt.chi is None:
