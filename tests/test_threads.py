@@ -12,6 +12,7 @@ from threadpoolctl import threadpool_info
 from mocap import threads
 from mocap.threads import thread_budget
 from mocap.trackers.base import Estimate
+from mocap.trackers.contract import OnePerson
 from mocap.trackers.run import track_sequence
 
 
@@ -19,7 +20,7 @@ def blas_threads() -> list[int]:
     return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
 
 
-class ProbeTracker:
+class ProbeTracker(OnePerson):
     """Records the thread limits seen while stepping."""
 
     name = "probe"

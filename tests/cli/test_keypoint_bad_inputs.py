@@ -243,7 +243,7 @@ def test_an_error_while_tracking_keeps_its_traceback(tmp_path, monkeypatch, caps
     def broken(*args, **kwargs):
         raise KeyError("mpjpe_std_mm")
 
-    monkeypatch.setattr(tracking, "track_sequence", broken)
+    monkeypatch.setattr(tracking, "run_frames", broken)
     with pytest.raises(KeyError) as info:
         main(["track", "tracker=apf", "data=walk_small", "data.frames=2", "tracker.particles=4",
               "tracker.layers=2", "recording.enabled=false", f"hydra.run.dir={tmp_path}"])
