@@ -47,13 +47,13 @@ def test_the_wheel_installed_outside_the_checkout_tracks(tmp_path):
     src.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, src / name)
-    for package in ("mocap", "mocap_cli"):
+    for package in ("mocap", "mocap_cli", "mocap_build", "conf"):
         shutil.copytree(REPO / package, src / package,
                         ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.nbi", "*.nbc"))
     run([UV, "build", "--wheel", "--offline", "--out-dir", tmp_path / "dist", src])
     (wheel,) = (tmp_path / "dist").glob("mocap-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    conf = {p.relative_to(REPO).as_posix() for p in (REPO / "mocap_cli" / "conf").rglob("*.yaml")}
+    conf = {"mocap_cli/" + p.relative_to(REPO).as_posix() for p in (REPO / "conf").rglob("*.yaml")}
     assert conf and conf <= names, sorted(conf - names)           # every Hydra config ships
     assert "mocap_cli/main.py" in names
     python = getattr(sys, "_base_executable", sys.executable)

@@ -7,7 +7,7 @@ kept when the recording fails), and last ``manifest.json`` (their sizes and chec
 the tracker they step (``wrap``) and the metrics they add (``extra``).
 
 The run's settings are read from ``config``, the resolved configuration as plain values (what
-metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents the keys):
+metrics.json stores under ``"config"``; conf/tracking.yaml documents the keys):
 
     seed, frames, threads            the data/tracker seed (an int >= 0), frames to track (an int
                                      >= 1, at most the data's; None or "all": all), thread budget

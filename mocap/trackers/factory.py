@@ -1,6 +1,6 @@
 """Tracker constructors. ``build_*``: a tracker from its settings dataclass (the presets of
 :mod:`mocap.trackers.presets` use them); ``make_*``: the same from keyword settings, checked and
-made into the settings dataclass first (``mocap_cli/conf/tracker/*.yaml`` name them in
+made into the settings dataclass first (``conf/tracker/*.yaml`` name them in
 ``_target_``; Hydra calls them with ``body``, ``rig``, ``rng`` and the config's keys). Every
 default is the settings dataclass's (:mod:`mocap.trackers.tracker_settings`,
 :mod:`mocap.trackers.markers.settings`)."""

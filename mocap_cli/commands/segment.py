@@ -1,7 +1,7 @@
 """``mocap segment``: segment a recording into silhouettes and write a sequence folder with the
 masks.
 
-    mocap segment                                  # Pose2Sim demo (mocap_cli/conf/segment.yaml)
+    mocap segment                                  # Pose2Sim demo (conf/segment.yaml)
     mocap segment segmentation.method=knn data.stop=100 data.step=1
     mocap segment background_clip=/path/to/empty_scene_videos segmentation.background=median
 

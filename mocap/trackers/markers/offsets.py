@@ -37,7 +37,7 @@ from mocap.settings import check
 #: ``realistic_sim``: the simulated detector of ``data.detections.semantics=realistic``, calibrated
 #: on the real-motion DEV split and data/mismatch (8 views, seeds 0-2): the mean of robust
 #: triangulations of its detections against the ground-truth joints
-#: (``python studies/detector_semantics.py --calibrate``)
+#: (``python experiments/detector_semantics.py --calibrate``)
 PROFILES: dict[str, dict[str, tuple[float, float, float]]] = {
     "realistic_sim": {"mid_hip": (-1.0, 4.0, 44.0), "neck_base": (-1.0, 13.0, 18.0),
                       "head_centre": (-1.0, 26.0, 10.0), "shoulder": (12.0, -8.0, 22.0),

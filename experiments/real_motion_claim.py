@@ -5,7 +5,7 @@ per tracker and sequence the joint error (mean over seeds) and its ratio to the 
 fitted to the true joints), frames lost and time per frame; then the ratios the issue asks for.
 
     mocap track --multirun +sweep=real_motion_test hydra.sweep.dir=multirun/real_motion_test
-    python studies/real_motion_claim.py multirun/real_motion_test [--out table.md]
+    python experiments/real_motion_claim.py multirun/real_motion_test [--out table.md]
 
 Runs without a manifest.json (written by code before issue 27) are refused unless
 ``--accept-unverified`` is given; they are then counted under the table.

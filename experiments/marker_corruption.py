@@ -5,10 +5,10 @@ The corruption study of Canton-Ferrer et al. 2010 (Sec. 4.1, Fig. 6) from sweep 
 
     mocap track --multirun +sweep=marker_miss hydra.sweep.dir=multirun/marker_miss
     (... marker_fp, marker_noise, marker_layers)
-    python studies/marker_corruption.py multirun/marker_miss multirun/marker_fp \
+    python experiments/marker_corruption.py multirun/marker_miss multirun/marker_fp \
         multirun/marker_noise multirun/marker_layers [--out DIR]
 
-Each sweep varies one factor (mocap_cli/conf/sweep/marker_*.yaml); the factor is read from the runs'
+Each sweep varies one factor (conf/sweep/marker_*.yaml); the factor is read from the runs'
 configs (the one of miss rate, false-positive rate, noise and layers that takes several
 values). Writes marker_corruption.md / .csv (mean joint error, MMTA, MMTP over seeds per
 value) and marker_corruption.png (error against each factor: the paper's Figure 6).

@@ -5,7 +5,7 @@ Contact sheet of a ``mocap video-check`` run: per view, the video frame, its mas
 the tracked body projected on it (filled outline) plus the confident keypoints (green) and the
 body's landmarks (red; with the keypoint-to-joint offsets of the run's metrics.json).
 
-    python studies/video_contact.py multirun/video_check_demo_0_40_2/hybrid [frame ...] [--out x.png]
+    python experiments/video_contact.py multirun/video_check_demo_0_40_2/hybrid [frame ...] [--out x.png]
 
 Frames are indices into the run's selection (default: the worst frame by the offset-corrected
 reprojection error, and frame 0 when that is another one).

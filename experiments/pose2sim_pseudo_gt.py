@@ -8,7 +8,7 @@ frames by the nearest centroid, in the ``coco17`` skeleton, people ``p0`` (most 
 first frame) and ``p1``. It is model-free triangulation, not an accuracy reference: the MPJPE
 against it is agreement with triangulation (COCO hips are not anatomical hip joints).
 
-    python -m studies.pose2sim_pseudo_gt --out outputs/demo_pseudo_gt
+    python -m experiments.pose2sim_pseudo_gt --out outputs/demo_pseudo_gt
     mocap track tracker=marker_apf data=pose2sim_demo data.path=outputs/demo_pseudo_gt \\
         init.mode=tracker recording.enabled=false hydra.run.dir=outputs/demo_pseudo_gt_run
     # metrics.json: people.p0 / people.p1 (track, coverage, mpjpe_mm, pcp, identity_switches)

@@ -3,7 +3,7 @@ keypoint-to-joint offsets (fitted once, on the keypoint tracker)?
 
 Table of ``mocap video-check`` runs on one recording, with one set of keypoint-to-joint offsets for all.
 
-    python studies/video_summary.py outputs/video_check/demo_0_40_2 [reference tracker]
+    python experiments/video_summary.py outputs/video_check/demo_0_40_2 [reference tracker]
 
 Each subfolder is a run of ``mocap video-check`` (metrics.json + motion.npz) on the
 same frames. The constant keypoint-to-landmark offsets are fitted ONCE, on the reference run

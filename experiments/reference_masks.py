@@ -3,8 +3,8 @@ reference mask_quality.py scores against)?
 
 Hand-checked reference silhouettes of the Pose2Sim demo, made by assisted labelling.
 
-    python studies/reference_masks.py                # masks + overlays from annotations.json
-    python studies/reference_masks.py /path/to/pose2sim-demo cam_02_0040   # one item only
+    python experiments/reference_masks.py                # masks + overlays from annotations.json
+    python experiments/reference_masks.py /path/to/pose2sim-demo cam_02_0040   # one item only
 
 ``tests/data/pose2sim_demo_reference/annotations.json`` holds, per (camera, source frame), the
 subject's outline traced by hand as a polygon (``poly``, in pixels of the 272x480 output, read

@@ -1,7 +1,7 @@
 """Question: tracked from `mocap detect`'s keypoints and masks only, how well does the body fit
 the Pose2Sim demo's shipped OpenPose keypoints (which the tracker never saw)?
 
-    python -m studies.detector_end_to_end RUN [RUN ...] [--demo ../shared/data/pose2sim-demo]
+    python -m experiments.detector_end_to_end RUN [RUN ...] [--demo ../shared/data/pose2sim-demo]
         [--contact RUN --frame 0 --out contact.png]
 
 For each run folder (``mocap track``): the median reprojection error (px, full resolution

@@ -16,8 +16,8 @@ and scores each stage. Where E_S falls while the joint error rises, the silhouet
 determine the joints to the oracle's accuracy, and no silhouette tracker should be expected
 to reach it.
 
-    python studies/silhouette_floor.py data=mismatch_walk      # one sequence
-    python studies/silhouette_floor.py --all                   # the three mismatch sequences
+    python experiments/silhouette_floor.py data=mismatch_walk      # one sequence
+    python experiments/silhouette_floor.py --all                   # the three mismatch sequences
 Writes outputs/silhouette_floor/<sequence>.json.
 """
 
@@ -112,7 +112,7 @@ def floor(data: str, rounds: int, keyframes: int, frames: int | None, seed: int)
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("data", nargs="*", help="data=<name> of mocap_cli/conf/data (default with --all: "
+    p.add_argument("data", nargs="*", help="data=<name> of conf/data (default with --all: "
                    "the three mismatch sequences)")
     p.add_argument("--all", action="store_true", help="the three model-mismatch sequences")
     p.add_argument("--rounds", type=int, default=2)

@@ -2,9 +2,9 @@
 against hand-checked reference masks?
 
 Mask quality on the Pose2Sim demo: IoU of each segmentation method against the hand-checked
-reference silhouettes in tests/data/pose2sim_demo_reference (see studies/reference_masks.py).
+reference silhouettes in tests/data/pose2sim_demo_reference (see experiments/reference_masks.py).
 
-    python studies/mask_quality.py [demo folder] [out.json]
+    python experiments/mask_quality.py [demo folder] [out.json]
 
 Every method segments source frames 0:100:2 at 272x480 (the background models see those 50
 frames; no background clip exists for this recording) and is scored on the reference frames.

@@ -4,7 +4,7 @@ identities apart and track each person as well as it tracks them alone?
 Several people: identity switches and per-person error of the multi-person marker tracker
 (mocap/trackers/markers/people.py) against tracking each person alone.
 
-    python studies/marker_people.py --seeds 0 1 2 --frames 50 --out marker_people.json
+    python experiments/marker_people.py --seeds 0 1 2 --frames 50 --out marker_people.json
 
 Scene (:func:`mocap.data.crowd.crossing_scene`): three people with different shapes, two
 walking towards each other on lines ``--gap`` m apart and crossing half way, one gesturing

@@ -9,7 +9,7 @@ detects markers in the other frames by a Mahalanobis threshold, and reports dete
 false-positive rate and pixel error against the true projections of the visible markers,
 for several thresholds. Writes detector.json, detector.md and detections.png into --out.
 
-    PYOPENGL_PLATFORM=egl python studies/marker_detector.py --frames 12 --out outputs/marker_detector
+    PYOPENGL_PLATFORM=egl python experiments/marker_detector.py --frames 12 --out outputs/marker_detector
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ robust per-frame triangulation of the same keypoint detections, and by how much?
 
 marker_apf against robust per-frame triangulation of the same keypoint detections.
 
-    python studies/marker_vs_triangulation.py --motions walk box gestures --seeds 0 1 2 \
+    python experiments/marker_vs_triangulation.py --motions walk box gestures --seeds 0 1 2 \
         --variants base refine --out marker_vs_triangulation.json
 
 Synthetic scenes (paper22 body, a shape drawn per seed, the HumanEva-like 4-view rig): the

@@ -2,7 +2,7 @@
 probable than today's prior learned from our procedural motion library, and which density
 does better than the paper's Parzen prior over 16-30 DOFs? (issue 24, item 2)
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python studies/prior_heldout.py --body paper22 [full] [--ship]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python experiments/prior_heldout.py --body paper22 [full] [--ship]
 
 Reads the real clips (``--clips``, default ``../shared/data/real-motion``), retargets them onto
 the body with :mod:`mocap.clips` (cached per clip in ``--cache``), and evaluates, on every frame
@@ -63,7 +63,7 @@ more probable than today's prior learned from our procedural motion library, and
 does better than the paper's Parzen prior over 16-30 DOFs? (issue 24, item 2)
 
 ```bash
-OPENBLAS_NUM_THREADS=1 .venv/bin/python studies/prior_heldout.py \\
+OPENBLAS_NUM_THREADS=1 .venv/bin/python experiments/prior_heldout.py \\
     --body {bodies} --samples {samples} --step {step}{ship}
 ```
 

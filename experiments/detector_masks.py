@@ -2,13 +2,13 @@
 background model and multi-view carving, beat today's silhouettes on real video?
 
 Mask quality of `mocap detect`'s masks on the Pose2Sim demo against the hand-checked reference
-(tests/data/pose2sim_demo_reference: 5 frames x 4 views at 272x480; studies/reference_masks.py).
+(tests/data/pose2sim_demo_reference: 5 frames x 4 views at 272x480; experiments/reference_masks.py).
 
     mocap detect ../shared/data/pose2sim-demo --out outputs/detect/demo_0_100_2 --stop 100 --step 2
-    python -m studies.detector_masks outputs/detect/demo_0_100_2 [out.json]
+    python -m experiments.detector_masks outputs/detect/demo_0_100_2 [out.json]
 
 Source frames 0:100:2 (the background model sees those 50 frames, as in
-studies/mask_quality.py) at 272x480; the detector's keypoints guide GrabCut and carving. Prints
+experiments/mask_quality.py) at 272x480; the detector's keypoints guide GrabCut and carving. Prints
 mean / min IoU per method and the combination's time per frame per view (detection excluded:
 detect.json has it), and writes them as JSON (default outputs/detector_masks.json).
 """
@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.mask_quality import REF, load_reference
 from mocap.data.segmentation import iou, keypoint_dict, segment_sequence
 from mocap.data.video_sequence import load_video_sequence
 from mocap.video.detect import read_masks
 from mocap.video.person_masks import combine_masks
-from studies.mask_quality import REF, load_reference
 
 METHODS = {
     "detector (probability >= 0.5)": None,

@@ -1,7 +1,7 @@
 """Question: how long does the built-in detector take per frame and view, at the videos' full
 resolution and at the tracked resolution?
 
-    python -m studies.detector_speed [demo folder] [--frames 30] [--scale 0.25]
+    python -m experiments.detector_speed [demo folder] [--frames 30] [--scale 0.25]
 
 Decodes the first ``frames`` frames of every view once, then times PoseDetector (one per
 view, tracking mode, segmentation on) on the same frames at full resolution and downscaled by

@@ -2,7 +2,7 @@
 left/right swaps, limbs of another person, confidences that do not match the error), does
 ``marker_apf`` beat robust per-frame triangulation of the same detections, and by how much?
 
-    python studies/detector_semantics.py --split test --views 4 8 --seeds 0 1 2 \
+    python experiments/detector_semantics.py --split test --views 4 8 --seeds 0 1 2 \
         --variants default --out detector_semantics_test.json
 
 Sequences: the real-motion benchmark (``data/real_motion/<split>/*``) and, with ``--mismatch``,

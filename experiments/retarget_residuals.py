@@ -8,7 +8,7 @@ is read (mocap.clips.read_bvh) and retargeted onto the body (mocap.clips.retarge
 limb segments (degrees), and the time per frame. Writes a markdown table (default
 docs/results/real_motion_retargeting.md) and the numbers as JSON beside it.
 
-    OPENBLAS_NUM_THREADS=1 python studies/retarget_residuals.py --step 5 [--limit N] [--body paper22]
+    OPENBLAS_NUM_THREADS=1 python experiments/retarget_residuals.py --step 5 [--limit N] [--body paper22]
         [--match positions|segments] [--out docs/results/real_motion_retargeting.md]
 
 The residuals are derived from data licensed CC BY-NC 4.0 (see the output's attribution).
@@ -163,7 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     if not (args.data / "index.csv").is_file():
         print(f"{args.data}: no index.csv (the real-motion clips are not here)", file=sys.stderr)
         return 2
-    command = "OPENBLAS_NUM_THREADS=1 python studies/retarget_residuals.py " + " ".join(argv or sys.argv[1:])
+    command = ("OPENBLAS_NUM_THREADS=1 python experiments/retarget_residuals.py "
+               + " ".join(argv or sys.argv[1:]))
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True,
                             text=True).stdout.strip()
     res = run(args.data, args.step, args.body, args.limit, args.match)
