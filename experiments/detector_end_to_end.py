@@ -28,11 +28,11 @@ import numpy as np  # noqa: E402
 from mocap.body.catalogue import make_landmark_set  # noqa: E402
 from mocap.cameras import load_calibration, project  # noqa: E402
 from mocap.data.openpose import load_openpose_sequence  # noqa: E402
-from mocap.data.video_sequence import rescale_detections  # noqa: E402
 from mocap.eval.keypoint_metrics import keypoint_metrics  # noqa: E402
 from mocap.export.motion import load_motion  # noqa: E402
 from mocap.render import rasterize_silhouettes  # noqa: E402
 from mocap.run_folder import run_body, run_sequence  # noqa: E402
+from mocap.video.sequence import rescale_detections  # noqa: E402
 
 DEMO = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "pose2sim-demo"
 

@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from experiments.mask_quality import REF, load_reference
-from mocap.data.segmentation import iou, keypoint_dict, segment_sequence
-from mocap.data.video_sequence import load_video_sequence
 from mocap.video.detect import read_masks
 from mocap.video.person_masks import combine_masks
+from mocap.video.segmentation import iou, keypoint_dict, segment_sequence
+from mocap.video.sequence import load_video_sequence
 
 METHODS = {
     "detector (probability >= 0.5)": None,

@@ -19,8 +19,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mocap.data.video_sequence import load_video_sequence
 from mocap.video.detector import PoseDetector
+from mocap.video.sequence import load_video_sequence
 
 DEMO = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "pose2sim-demo"
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap.eval.ablation import collect
+from mocap.run_folder.sweep import collect
 
 FACTORS = {
     "miss rate": lambda c: round(1.0 - float(c["data"]["detections"]["detection_rate"]), 6),

@@ -45,13 +45,12 @@ import numpy as np
 
 from mocap.body import load_body
 from mocap.body.catalogue import make_landmark_set
+from mocap.body.skeletons import LAYOUTS, SKELETONS
 from mocap.cameras import Rig, project, rig_from_config
 from mocap.data.generate import make_synthetic
-from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import load_sequence
 from mocap.energy.markers import arrange_detections
-from mocap.eval.by_name import SKELETONS
 from mocap.trackers.markers.startup import triangulate_candidates
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence

@@ -21,8 +21,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mocap.data.segmentation import iou, segment_sequence
-from mocap.data.video_sequence import load_video_sequence
+from mocap.video.segmentation import iou, segment_sequence
+from mocap.video.sequence import load_video_sequence
 
 REPO = Path(__file__).resolve().parents[1]
 REF = REPO / "tests" / "data" / "pose2sim_demo_reference"

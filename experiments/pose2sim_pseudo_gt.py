@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mocap.body.skeletons import SKELETONS
 from mocap.cameras import fundamental_matrices, triangulate
 from mocap.data.openpose import load_openpose_sequence
-from mocap.eval.by_name import SKELETONS
 from mocap.trackers.markers.associate import associate_people, skeletons_of
 
 DEMO = Path(os.environ.get("MOCAP_SHARED_DATA", "../shared/data")) / "pose2sim-demo"

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap.eval.ablation import collect
+from mocap.run_folder.sweep import collect
 
 #: the trackers of the claim in the order of the table (others found are appended)
 ORDER = ("local", "hybrid", "hybrid_prior", "hybrid_prior_real", "hybrid_kp", "apf_25x10", "apf_prior",

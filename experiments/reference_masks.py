@@ -17,7 +17,7 @@ strokes and areas override it. The result is downscaled (area > 0.5) to 272x480 
 ``<camera>_<frame>.png`` (0 / 255); overlays go to outputs/pose2sim_demo_reference_overlays.
 Polygons, strokes and areas were placed and corrected by looking at zoomed overlays of each
 result until the outline followed the subject (20 masks: frames 0, 20, 40, 60, 80 x 4 views).
-No keypoints, no background model and none of mocap.data.segmentation's code are involved.
+No keypoints, no background model and none of mocap.video.segmentation's code are involved.
 A later check of the overlays found three shins left out (cam_02_0040, cam_03_0060,
 cam_04_0060: thin limbs the first polygon missed); each got its own outline polygon.
 """
@@ -32,7 +32,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from mocap.data.video_sequence import load_video_sequence
+from mocap.video.sequence import load_video_sequence
 
 REPO = Path(__file__).resolve().parents[1]
 REF = REPO / "tests" / "data" / "pose2sim_demo_reference"

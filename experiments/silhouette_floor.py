@@ -37,8 +37,9 @@ from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
 from mocap.run_folder import write_json
 from mocap.threads import thread_budget
-from mocap.trackers.apf import APFSettings, run_apf
-from mocap.trackers.shape_search import ShapeRefinement, refine_shape, shifted
+from mocap.trackers.apf import run_apf
+from mocap.trackers.shape_search import refine_shape, shifted
+from mocap.trackers.tracker_settings import APFSettings, ShapeRefinement
 from mocap_cli.hydra_edge import build, compose
 
 SEQUENCES = ("mismatch_walk", "mismatch_box", "mismatch_gesture")

@@ -26,10 +26,10 @@ from tqdm import tqdm
 
 from mocap.data.people_truth import people_truth
 from mocap.eval.people_metrics import people_run_metrics
-from mocap.eval.run_metadata import run_metadata
 from mocap.export.people_motion import people_motion_arrays, write_people_motion
 from mocap.recording.sink import RunInfo
 from mocap.run_folder.attempt import run_attempt, seal_run
+from mocap.run_folder.metadata import run_metadata
 from mocap.threads import thread_budget
 from mocap.trackers.run import frame_of
 

@@ -43,20 +43,21 @@ from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.quality import quality_flags
-from mocap.eval.resume import (
+from mocap.eval.run_metrics import run_metrics
+from mocap.export.motion import motion_arrays, write_motion
+from mocap.recording.factory import make_sink
+from mocap.recording.settings import recording_settings
+from mocap.recording.sink import RunInfo
+from mocap.run_folder.attempt import run_attempt, seal_run
+from mocap.run_folder.manifest import manifest_problem
+from mocap.run_folder.metadata import run_metadata
+from mocap.run_folder.resume import (
     config_changes,
     restore_previous,
     restore_stored_config,
     run_state,
     set_aside,
 )
-from mocap.eval.run_metadata import run_metadata
-from mocap.eval.run_metrics import run_metrics
-from mocap.export.motion import motion_arrays, write_motion
-from mocap.recording.factory import make_sink, recording_settings
-from mocap.recording.sink import RunInfo
-from mocap.run_folder.attempt import run_attempt, seal_run
-from mocap.run_folder.manifest import manifest_problem
 from mocap.threads import resolve_threads
 from mocap.trackers.base import Tracker
 from mocap.trackers.init_cache import initial_estimate

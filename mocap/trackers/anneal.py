@@ -34,7 +34,7 @@ import numpy as np
 
 from mocap.body.root_motion import interpolate_root, perturb_root, root_mean, root_spread
 from mocap.compiled import HAVE_NUMBA, njit  # compiled bisection of the betas; numpy is the fallback
-from mocap.settings import check
+from mocap.trackers.tracker_settings import APFSettings
 
 EnergyFn = Callable[[np.ndarray], np.ndarray]
 #: (particles (P, D), std (D,), limits (D, 2), rng, root_point (3,) or None) -> particles (P, D)
@@ -42,27 +42,6 @@ Propagate = Callable[[np.ndarray, np.ndarray, np.ndarray, np.random.Generator, "
                      np.ndarray]
 
 BETA_ITERATIONS = 30       # bisection steps in log10 beta over 24 decades: 2e-8 decades
-
-
-@dataclass(frozen=True)
-class APFSettings:
-    particles: int = 100
-    layers: int = 15
-    survival: float = 0.5          # target survival rate alpha
-    diffusion: float = 0.7         # diffusion std = diffusion * spread of the resampled set
-    shrink: float = 0.9            # ... times shrink^m in layer m
-    min_std_fraction: float = 0.05  # floor: this fraction of the initial std (times shrink^m)
-    estimate: str = "mean"          # "mean": weighted mean of the last layer; "best": the
-                                    # lowest-energy particle seen in any layer
-
-    def __post_init__(self) -> None:
-        check(self, "particles", self.particles >= 2, "an integer >= 2")
-        check(self, "layers", self.layers >= 1, "an integer >= 1")
-        check(self, "survival", 0.0 < self.survival < 1.0, "(0, 1)")
-        check(self, "diffusion", self.diffusion > 0.0, "> 0")
-        check(self, "shrink", 0.0 < self.shrink <= 1.0, "(0, 1]")
-        check(self, "min_std_fraction", self.min_std_fraction >= 0.0, ">= 0")
-        check(self, "estimate", self.estimate in ("mean", "best"), "'mean' or 'best'")
 
 
 @dataclass(frozen=True)

@@ -15,14 +15,15 @@ from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
-from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.energy.total import FrameEnergy
+from mocap.energy.weights import EnergyWeights
 from mocap.settings import fields_of
-from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.apf import run_apf
 from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.initialization import SilhouetteInitialisation
 from mocap.trackers.step import AnnealedStep
-from mocap.trackers.tracker_settings import APFTrackerSettings
+from mocap.trackers.tracker_settings import APFSettings, APFTrackerSettings
 
 
 def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: float) -> np.ndarray:

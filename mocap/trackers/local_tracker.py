@@ -20,9 +20,9 @@ from mocap.local.solver import PointLines, merge  # noqa: F401  (merge: re-expor
 from mocap.settings import fields_of, with_overrides
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
-from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
+from mocap.trackers.initialization import SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
-from mocap.trackers.tracker_settings import LocalSettings, LocalStepSettings
+from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings
 
 
 class LocalTracker(SilhouetteInitialisation):

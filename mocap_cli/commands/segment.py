@@ -17,9 +17,9 @@ from dataclasses import replace
 
 from omegaconf import DictConfig, OmegaConf
 
-from mocap.data.segmentation import segment_sequence
 from mocap.data.sequence_io import write_sequence
-from mocap.data.video_sequence import load_background_clip
+from mocap.video.segmentation import segment_sequence
+from mocap.video.sequence import load_background_clip
 from mocap_cli.hydra_edge import build, run_command
 
 

@@ -4,7 +4,8 @@ import pytest
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
-from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.energy.total import FrameEnergy
+from mocap.energy.weights import EnergyWeights
 from mocap.eval.metrics import joint_errors
 from mocap.trackers.apf import (
     APFSettings,

@@ -11,9 +11,9 @@ import numpy as np
 
 from mocap.energy.markers import MarkerLikelihood
 from mocap.settings import check, fields_of
-from mocap.trackers.anneal import APFSettings
-from mocap.trackers.markers.offsets import PROFILES, OffsetLearning
+from mocap.trackers.markers.offsets import PROFILES
 from mocap.trackers.markers.refine import Refinement
+from mocap.trackers.tracker_settings import APFSettings, OffsetLearning
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,6 @@ from mocap.energy.markers import (
     reprojection_errors,
     views_near,
 )
-from mocap.trackers.apf import APFSettings
 from mocap.trackers.apf_tracker import diffusion_std
 from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
@@ -53,6 +52,7 @@ from mocap.trackers.markers.startup import (
     triangulate_candidates,
 )
 from mocap.trackers.step import AnnealedStep
+from mocap.trackers.tracker_settings import APFSettings
 
 
 class MarkerAPFTracker(AnnealedStep):

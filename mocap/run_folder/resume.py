@@ -18,20 +18,7 @@ import shutil
 from collections.abc import Mapping
 from pathlib import Path
 
-#: mocap.run_folder.manifest's names (imported lazily: mocap.run_folder imports this module)
-MANIFEST, PREVIOUS = "manifest.json", "previous_run"
-
-
-def manifest_problem(run_dir):
-    from mocap.run_folder.manifest import manifest_problem as problem
-
-    return problem(run_dir)
-
-
-def read_manifest(run_dir):
-    from mocap.run_folder.manifest import read_manifest as read
-
-    return read(run_dir)
+from mocap.run_folder.manifest import MANIFEST, PREVIOUS, manifest_problem, read_manifest
 
 #: top-level keys that do not change a run's results (resume bookkeeping)
 IGNORED = ("skip_complete", "resume_on_change")

@@ -11,7 +11,8 @@ from mocap.body.landmarks import LandmarkSet
 from mocap.cameras import project, ring_rig
 from mocap.data.generate import subject_shape
 from mocap.data.motion import generate_motion
-from mocap.data.segmentation import (
+from mocap.data.sequence import Detections, Sequence
+from mocap.video.segmentation import (
     carve_views,
     clean_mask,
     fill_holes,
@@ -21,7 +22,6 @@ from mocap.data.segmentation import (
     segment_sequence,
     subject_box,
 )
-from mocap.data.sequence import Detections, Sequence
 
 F = 6
 

@@ -22,6 +22,7 @@ exactly.) A larger difference is an error: the calibration belongs to another vi
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections import OrderedDict
 from collections.abc import Sequence as Seq
@@ -235,3 +236,22 @@ class VideoFrames:
     def close(self) -> None:
         for r in self._readers:
             r.close()
+
+
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")
+
+
+def _key(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", name.lower())
+
+
+def match_videos(camera_names, folder: Path) -> list[Path]:
+    """The video file of each camera (by name, ignoring case and separators)."""
+    if not folder.is_dir():
+        raise FileNotFoundError(f"video folder not found: {folder}")
+    files = {_key(p.stem): p for p in sorted(folder.iterdir()) if p.suffix.lower() in VIDEO_SUFFIXES}
+    missing = [n for n in camera_names if _key(n) not in files]
+    if missing:
+        raise FileNotFoundError(f"{folder}: no video for cameras {missing} (videos: "
+                                f"{sorted(p.name for p in files.values())})")
+    return [files[_key(n)] for n in camera_names]

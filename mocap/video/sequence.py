@@ -1,5 +1,5 @@
 """A recording given as videos + calibration (+ keypoints, + masks) as a :class:`Sequence`
-whose images are decoded lazily (:class:`mocap.data.video.VideoFrames`).
+whose images are decoded lazily (:class:`mocap.video.frames.VideoFrames`).
 
     seq = load_video_sequence("../shared/data/pose2sim-demo", start=0, stop=100, step=2,
                               scale=0.25, segmentation={"method": "keypoint_grabcut"})
@@ -8,12 +8,11 @@ Videos are matched to cameras by name like keypoint folders (``cam01.mp4`` <-> `
 The rig is the calibration scaled by ``scale``; keypoints (when a folder is given) are
 rescaled to it and renumbered to the selected frames. Masks come from a sequence folder made
 by ``mocap segment`` (``masks=``) or are computed at load time (``segmentation=``,
-see :func:`mocap.data.segmentation.segment_sequence`).
+see :func:`mocap.video.segmentation.segment_sequence`).
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -23,25 +22,7 @@ import numpy as np
 from mocap.cameras import load_calibration
 from mocap.data.openpose import _find_calibration, load_openpose_sequence
 from mocap.data.sequence import Detections, Sequence
-from mocap.data.video import VideoFrames, frame_range, video_info
-
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm")
-
-
-def _key(name: str) -> str:
-    return re.sub(r"[^a-z0-9]", "", name.lower())
-
-
-def match_videos(camera_names, folder: Path) -> list[Path]:
-    """The video file of each camera (by name, ignoring case and separators)."""
-    if not folder.is_dir():
-        raise FileNotFoundError(f"video folder not found: {folder}")
-    files = {_key(p.stem): p for p in sorted(folder.iterdir()) if p.suffix.lower() in VIDEO_SUFFIXES}
-    missing = [n for n in camera_names if _key(n) not in files]
-    if missing:
-        raise FileNotFoundError(f"{folder}: no video for cameras {missing} (videos: "
-                                f"{sorted(p.name for p in files.values())})")
-    return [files[_key(n)] for n in camera_names]
+from mocap.video.frames import VideoFrames, frame_range, match_videos, video_info
 
 
 def rescale_detections(det: Detections, frames: list[int], sx: float, sy: float) -> Detections:
@@ -111,7 +92,7 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
     elif masks is not None:
         seq = replace(seq, masks=masks_from_folder(Path(masks), seq))
     elif segmentation is not None:
-        from mocap.data.segmentation import segment_sequence
+        from mocap.video.segmentation import segment_sequence
 
         seg = segment_sequence(seq, **dict(segmentation))
         seq = replace(seq, masks=seg.masks, meta={**meta, "segmentation": seg.info})
@@ -121,9 +102,9 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
 def refined_detector_masks(folder: Path, seq: Sequence, options: dict) -> np.ndarray:
     """(F, C, H, W) bool: ``mocap detect``'s person probabilities in ``folder`` combined with
     GrabCut / a background model / carving (:func:`mocap.video.person_masks.combine_masks`)."""
-    from mocap.data.segmentation import keypoint_dict
     from mocap.video.detect import read_masks
     from mocap.video.person_masks import combine_masks
+    from mocap.video.segmentation import keypoint_dict
 
     if not (folder / seq.rig.names[0]).is_dir():
         raise ValueError(f"refine_masks: {folder} is not a mocap detect masks folder "

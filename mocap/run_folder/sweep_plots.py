@@ -10,8 +10,8 @@
   line and their min–max as a band; the oracle's mean as a dashed line.
 
 Legends hold short names (:func:`short_label`), below the panels; no text on the points.
-The rows are those of :func:`mocap.eval.ablation.table_rows` and the runs are grouped the same
-way (:func:`mocap.eval.ablation.group_runs`), so a legend entry is a table row.
+The rows are those of :func:`mocap.run_folder.sweep.table_rows` and the runs are grouped the same
+way (:func:`mocap.run_folder.sweep.group_runs`), so a legend entry is a table row.
 """
 
 from __future__ import annotations
@@ -21,6 +21,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+
+from mocap.run_folder.sweep import group_runs
 
 PANEL_IN = (4.0, 3.4)       # inches per panel (width, height)
 DPI = 120
@@ -195,7 +197,7 @@ def _seed_note(counts: Sequence[int]) -> str:
 
 
 def tradeoff_figure(rows: Sequence[dict]):
-    """rows: :func:`mocap.eval.ablation.table_rows` -> a Figure with one axes per dataset
+    """rows: :func:`mocap.run_folder.sweep.table_rows` -> a Figure with one axes per dataset
     holding a joint error (rows with ``mpjpe_mean_mm``)."""
     rows = [r for r in rows if "mpjpe_mean_mm" in r]
     if not rows:
@@ -227,10 +229,8 @@ def tradeoff_figure(rows: Sequence[dict]):
 
 
 def frames_figure(runs: Sequence[dict]):
-    """runs: metrics.json contents (:func:`mocap.eval.ablation.collect`) -> a Figure with one
+    """runs: metrics.json contents (:func:`mocap.run_folder.sweep.collect`) -> a Figure with one
     axes per dataset: per-frame joint error of each table row (runs with ``per_frame_mm``)."""
-    from mocap.eval.ablation import group_runs
-
     groups = [(key, [r for r in rs if r.get("per_frame_mm")])
               for key, rs in group_runs([r for r in runs if r.get("per_frame_mm")]).items()]
     if not groups:
@@ -302,3 +302,13 @@ def write_plots(rows: Sequence[dict], runs: Sequence[dict] | None, out_dir: str 
     if runs is not None:
         written.append(save(frames_figure(runs), out_dir / "ablation_frames.png"))
     return written
+
+
+def plot(rows: list[dict], path: Path, runs: list[dict] | None = None) -> None:
+    """ablation.png at ``path`` (:func:`tradeoff_figure`: per dataset, error against time per
+    frame, the oracle as a line) and, when ``runs`` (:func:`mocap.run_folder.sweep.collect`'s)
+    are given, ablation_frames.png beside it (per-frame error curves)."""
+    path = Path(path)
+    save(tradeoff_figure(rows), path)
+    if runs is not None:
+        save(frames_figure(runs), path.with_name("ablation_frames.png"))

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from mocap.data.video import VideoError, VideoFrames, fit_to_size, frame_range
-from mocap.data.video_sequence import load_video_sequence
+from mocap.video.frames import VideoError, VideoFrames, fit_to_size, frame_range
+from mocap.video.sequence import load_video_sequence
 
 DEMO_CANDIDATES = [Path(__file__).resolve().parents[2].parent / "shared" / "data" / "pose2sim-demo",
                    Path(os.environ.get("POSE2SIM_DEMO", "/nonexistent"))]

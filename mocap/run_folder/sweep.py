@@ -1,4 +1,5 @@
-"""Ablation tables from a sweep's run directories (their metrics.json, never logs)."""
+"""Ablation tables from a sweep's run directories (their metrics.json, never logs); their
+figures are :mod:`mocap.run_folder.sweep_plots`."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+
+from mocap.run_folder.manifest import manifest_problem
 
 
 @dataclass(frozen=True)
@@ -90,7 +93,6 @@ def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
     from the configuration that ran (metrics.json's ``"config"``); a row holding runs of
     different configurations or one seed twice (a sweep folder that mixes configs) is
     reported too (:func:`mixed_rows`)."""
-    from mocap.run_folder.manifest import manifest_problem
 
     sweep_dir = Path(sweep_dir)
     if not sweep_dir.is_dir():
@@ -312,15 +314,3 @@ def write_csv(rows: list[dict], path: Path) -> None:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-
-
-def plot(rows: list[dict], path: Path, runs: list[dict] | None = None) -> None:
-    """ablation.png at ``path`` (:func:`mocap.viz.ablation_plots.tradeoff_figure`: per dataset,
-    error against time per frame, the oracle as a line) and, when ``runs`` (:func:`collect`'s)
-    are given, ablation_frames.png beside it (per-frame error curves)."""
-    from mocap.viz.ablation_plots import frames_figure, save, tradeoff_figure
-
-    path = Path(path)
-    save(tradeoff_figure(rows), path)
-    if runs is not None:
-        save(frames_figure(runs), path.with_name("ablation_frames.png"))

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
-from mocap.eval.ablation import collect, markdown, table_rows
 from mocap.export.motion import motion_arrays, write_motion
+from mocap.run_folder.sweep import collect, markdown, table_rows
 from mocap.trackers.base import Estimate
 
 
@@ -66,7 +66,7 @@ def test_expected_jobs_counts_the_sweep_config_and_the_command_line(tmp_path):
     list value do not count as sweep values."""
     import yaml
 
-    from mocap.eval.ablation import expected_jobs
+    from mocap.run_folder.sweep import expected_jobs
 
     (tmp_path / "multirun.yaml").write_text(yaml.safe_dump({"hydra": {
         "sweeper": {"params": {"data": "a,b,c", "tracker": "x,y,z,w", "seed": "0,1,2"}},

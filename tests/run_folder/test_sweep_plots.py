@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import yaml
 
-from mocap.eval.ablation import collect, plot, table_rows
-from mocap.viz.ablation_plots import frames_figure, labels, short_label, tradeoff_figure
+from mocap.run_folder.sweep import collect, table_rows
+from mocap.run_folder.sweep_plots import frames_figure, labels, plot, short_label, tradeoff_figure
 
 # (tracker, particles, layers, energy terms) as a real run's metrics.json states them
 TRACKERS = {"local": (0, 0, []), "apf_25x10": (25, 10, ["silhouette", "smoothness"]),
