@@ -10,7 +10,7 @@ the model-mismatch ones (``data/mismatch/*``), each with detections simulated fr
 ground-truth joints (``data.detections.semantics=realistic``, :mod:`mocap.data.detector_semantics`,
 seeded by the seed and the sequence), in the first 4 (views 0, 2, 4, 6) or all 8 views.
 Per (sequence, views, seed): robust per-frame triangulation of the detections
-(:mod:`mocap.eval.triangulation`; a keypoint no two views agree on keeps its last value) and
+(:mod:`experiments.tools.triangulation`; a keypoint no two views agree on keeps its last value) and
 ``marker_apf`` variants (:data:`VARIANTS`, the preset plus settings), self-initialised on frame 0
 as ``mocap track ... init.mode=tracker`` does, both scored by the same MPJPE on the same 15
 joints over the same frames (:class:`mocap.eval.by_name.NameScorer`). Writes one JSON row per
@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.tools.triangulation import robust_triangulation, score_triangulation
 from mocap.body import load_body
 from mocap.data.sources import folder_sequence
 from mocap.eval.by_name import NameScorer
-from mocap.eval.triangulation import robust_triangulation, score_triangulation
 from mocap.trackers.init_cache import initial_estimate
 from mocap.trackers.markers.offsets import remove_profile
 from mocap.trackers.markers.settings import MarkerSettings

@@ -23,11 +23,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from experiments.tools.marker_detector import ChromaModel, detect_markers, match_detections
 from mocap import presets
 from mocap.body import load_body_model
 from mocap.cameras import project, rig_from_config
 from mocap.data.generate import make_synthetic
-from mocap.data.marker_detector import ChromaModel, detect_markers, match_detections
 from mocap.data.synthetic import marker_visibility
 
 

@@ -26,11 +26,20 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.tools.gmm import fit_gmm
+from experiments.tools.real_prior import (
+    LOTO_SIGMAS,
+    clip_entries,
+    observed_dofs,
+    real_poses,
+    select_samples,
+    train_real_prior,
+)
 from mocap import presets
 from mocap.body import load_body_model
 from mocap.clips import read_bvh
 from mocap.clips.names import map_named
-from mocap.energy.gmm import fit_gmm
+from mocap.clips.split import read_split
 from mocap.energy.prior import ParzenPrior, PosePrior, default_prior_path, prior_path
 from mocap.energy.prior_eval import (
     defensive_log_density,
@@ -41,15 +50,6 @@ from mocap.energy.prior_eval import (
     scott_bandwidth,
     select_bandwidth_scale,
     uniform_log_density,
-)
-from mocap.energy.train_prior import (
-    LOTO_SIGMAS,
-    clip_entries,
-    observed_dofs,
-    read_split,
-    real_poses,
-    select_samples,
-    train_real_prior,
 )
 
 REPO = Path(__file__).resolve().parents[1]

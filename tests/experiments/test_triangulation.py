@@ -1,10 +1,10 @@
-"""The robust per-frame triangulation baseline (mocap/eval/triangulation.py)."""
+"""The robust per-frame triangulation baseline (experiments/tools/triangulation.py)."""
 
 import numpy as np
 
+from experiments.tools.triangulation import robust_triangulation
 from mocap.cameras import project, rig_from_config
 from mocap.data.sequence import Detections
-from mocap.eval.triangulation import robust_triangulation
 
 NAMES = ("a", "b", "c")
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from mocap.energy.gmm import GaussianMixture, fit_gmm
+from experiments.tools.gmm import GaussianMixture, fit_gmm
 
 
 def test_em_recovers_a_known_two_component_mixture():

@@ -1,4 +1,4 @@
-"""The colour marker detector (mocap/data/marker_detector.py)."""
+"""The colour marker detector (experiments/tools/marker_detector.py)."""
 
 import os
 
@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mocap.data.marker_detector import ChromaModel, detect_markers, match_detections
+from experiments.tools.marker_detector import ChromaModel, detect_markers, match_detections
 
 GREEN = (40, 230, 40)
 
