@@ -16,9 +16,9 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import ParzenPrior, PosePrior, default_prior_path
 from mocap.settings import settings_from_mapping
-from mocap.trackers.apf_tracker import APFTracker, internal_scale  # noqa: F401  (internal_scale: re-exported)
 from mocap.trackers.hybrid_tracker import HybridTracker, library_poses
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.silhouette_tracker import APFTracker, internal_scale  # noqa: F401  (internal_scale: re-exported)
 from mocap.trackers.tracker_settings import (
     APFTrackerSettings,
     HybridSettings,

@@ -29,13 +29,13 @@ from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import FrameEnergy
 from mocap.local.misalignment import LimbCheck, limb_chains
-from mocap.trackers.anneal import anneal, perturb
-from mocap.trackers.apf_tracker import diffusion_std, internal_scale
+from mocap.trackers.apf import anneal, perturb
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.silhouette_tracker import diffusion_std, internal_scale
 from mocap.trackers.tracker_settings import HybridSettings
 
 

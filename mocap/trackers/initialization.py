@@ -46,7 +46,7 @@ from mocap.trackers.tracker_settings import APFSettings, InitSettings
 
 #: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
 #: inputs and settings: part of the initialisation cache's key (:mod:`mocap.trackers.init_cache`)
-INITIALIZER_VERSION = 3      # 3: pose searches on the energy mesh, compiled shape energy, pruning
+INITIALIZER_VERSION = 3      # raised when the initialiser's results change (cached poses are redone)
 
 
 def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:

@@ -45,11 +45,12 @@ class APFSettings:
         check(self, "min_std_fraction", self.min_std_fraction >= 0.0, ">= 0")
         check(self, "estimate", self.estimate in ("mean", "best"), "'mean' or 'best'")
 
+
 #: a kept hypothesis whose fine E_S is more than this (relative) above the best one's after a
-#: round is dropped (InitSettings.prune_margin). On the mismatch and real-motion DEV sequences
-#: (seed 0) the round-1 leader won in the end wherever it led by 18 % or more (leads of 18-160 %),
-#: and lost twice where it led by 10 %: 0.25 keeps those close calls (docs/results/speed.md).
+#: round is dropped (InitSettings.prune_margin); the measurements behind it are in
+#: docs/results/speed.md
 PRUNE_MARGIN = 0.25
+
 
 @dataclass(frozen=True)
 class InitSettings:
@@ -77,6 +78,7 @@ class InitSettings:
               "null (the full mesh) or >= 4 triangles")
         check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
               "null (never) or >= 0 (relative)")
+
 
 @dataclass(frozen=True)
 class ShapeRefinement:
@@ -108,6 +110,7 @@ class ShapeRefinement:
         check(self, "std", self.std > 0, "> 0")
         check(self, "shift", self.shift >= 0, ">= 0 m")
 
+
 @dataclass(frozen=True)
 class OffsetLearning:
     """frames: tracked frames to learn from (0: off); max_norm: metres; min_samples: per
@@ -121,6 +124,7 @@ class OffsetLearning:
         check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
         check(self, "max_norm", self.max_norm >= 0, ">= 0 m")
         check(self, "min_samples", self.min_samples >= 1, "an integer >= 1")
+
 
 @dataclass(frozen=True)
 class KeypointSettings:

@@ -32,7 +32,7 @@ sequence itself; ``"auto"`` uses the clip when given.
 
 No person-segmentation network is used: of the packages on the index that ship weights
 inside the wheel, only the legacy MediaPipe releases (0.10.x, ``selfie_segmentation.tflite``)
-qualify, and they need numpy < 2 and protobuf < 5 (see the issue's note).
+qualify, and they need numpy < 2 and protobuf < 5.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The marker tracker's annealing: the core :func:`mocap.trackers.anneal.anneal` with the
+"""The marker tracker's search: the annealed particle filter (:func:`mocap.trackers.apf.anneal`) with the
 truncated Gaussian of Canton-Ferrer et al. 2010, Sec. 3.5
 (:func:`mocap.trackers.markers.propagation.propagate_truncated`) as its propagation, and
 crossover between body parts (the soft partitioning / crossover of Deutscher & Reid 2005,
@@ -17,18 +17,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mocap.trackers.anneal import (  # noqa: F401  (re-exported for existing callers)
-    AnnealTrace,
-    APFSettings,
-    EnergyFn,
-    PartGroup,
-    Propagate,
-    anneal,
-    find_betas,
-    part_weights,
-)
-from mocap.trackers.anneal import particle_spread as spread_of  # noqa: F401
+from mocap.trackers.apf import AnnealTrace, EnergyFn, PartGroup, Propagate, anneal
 from mocap.trackers.markers.propagation import propagate_truncated
+from mocap.trackers.tracker_settings import APFSettings
 
 
 def part_groups(dof_moves: np.ndarray) -> list[PartGroup]:
@@ -58,7 +49,7 @@ def run_annealing(energy: EnergyFn, center: np.ndarray, init_std: np.ndarray, li
                   previous: np.ndarray | None = None, root_point: np.ndarray | None = None,
                   propagate: Propagate = propagate_truncated,
                   groups: Sequence[PartGroup] = ()) -> tuple[np.ndarray, AnnealTrace]:
-    """:func:`mocap.trackers.anneal.anneal` over all DOFs with the truncated propagation and
+    """:func:`mocap.trackers.apf.anneal` over all DOFs with the truncated propagation and
     crossover ``groups``. energy: (P, D) -> (P,) energies, or (P, L) per-landmark costs.
     Returns (estimate (D,), trace); energy evaluations = particles x layers."""
     return anneal(energy, center, init_std, limits, settings, rng, propagate=propagate,

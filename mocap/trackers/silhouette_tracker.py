@@ -18,11 +18,11 @@ from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import FrameEnergy
 from mocap.energy.weights import EnergyWeights
 from mocap.settings import fields_of
+from mocap.trackers.annealed_step import AnnealedStep
 from mocap.trackers.apf import run_apf
 from mocap.trackers.base import Frame
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.initialization import SilhouetteInitialisation
-from mocap.trackers.step import AnnealedStep
 from mocap.trackers.tracker_settings import APFSettings, APFTrackerSettings
 
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from mocap.trackers.anneal import AnnealTrace
+from mocap.trackers.apf import AnnealTrace
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.diagnostics import StepDiagnostics
 
