@@ -4,7 +4,7 @@
         [--data mismatch_box,mismatch_walk,mismatch_gesture] [--seed 0] [--threads 1] \
         [--label new] [--out /tmp/init.jsonl] [--profile /tmp/init.prof]
 
-For every data config (mocap_cli/conf/data) the tracker config (``--tracker``, default
+For every data config (conf/data) the tracker config (``--tracker``, default
 ``apf_prior``: every silhouette tracker initialises with the same settings) is built as
 ``mocap track data=<name> init.mode=tracker seed=<seed>`` builds it, and
 :func:`mocap.trackers.init_cache.initial_estimate` runs without a cache (so nothing stored is

@@ -28,10 +28,10 @@ import numpy as np
 
 from mocap import presets
 from mocap.body import load_body_model
+from mocap.body.skeletons import LAYOUTS
 from mocap.cameras import rig_from_config, ring_rig
 from mocap.data.crowd import crowd_detections
 from mocap.data.generate import make_synthetic
-from mocap.data.openpose import LAYOUTS
 from mocap.energy.markers import MarkerEnergy, pinhole_project, view_costs
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence

@@ -46,7 +46,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from mocap.recording.factory import LEVELS, make_sink
+from mocap.recording.factory import make_sink
+from mocap.recording.settings import LEVELS
 from mocap.run_folder import run_tracking
 from mocap.run_folder import tracking as tracking_module
 from mocap_cli.hydra_edge import build, compose, plain

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import inspect
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from collections.abc import Sequence as Sequence_
 from typing import Any, TypeVar
 
@@ -131,22 +130,6 @@ def _listed(v: Any) -> Any:
     if isinstance(v, Mapping):
         return {k: _listed(x) for k, x in v.items()}
     return v
-
-
-def signature_settings(name: str, function: Callable, skip: tuple[str, ...] = (),
-                       extra: tuple[tuple[str, type, Any], ...] = (), doc: str = "",
-                       module: str = __name__) -> type:
-    """A frozen dataclass ``name`` whose fields are the keyword parameters of ``function``
-    with their defaults (the function's signature stays the one place they are written),
-    less ``skip``, plus ``extra`` fields (name, type, default); ``module``: where it is defined."""
-    params = [p for p in inspect.signature(function).parameters.values()
-              if p.name not in ("self", *skip) and p.default is not inspect.Parameter.empty]
-    fields = [(n, t, dataclasses.field(default=d)) for n, t, d in extra]
-    fields += [(p.name, p.annotation, dataclasses.field(default=p.default)) for p in params]
-    cls = dataclasses.make_dataclass(name, fields, frozen=True)
-    cls.__module__ = module
-    cls.__doc__ = doc or f"Keyword arguments of {function.__qualname__} (its defaults)."
-    return cls
 
 
 def fields_of(settings: Any, cls: type[T], skip: tuple[str, ...] = ()) -> dict:

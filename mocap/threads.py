@@ -6,7 +6,7 @@ process per core, so on 2 cores 2 processes x 2 BLAS threads fight over 2 cores 
 runs inside :func:`thread_budget`, with ``threads: auto`` = cores divided by the number of jobs
 running in parallel (1 in a single run); ``mocap track`` records the budget in metrics.json.
 
-What is reproducible (issue 28; tests/trackers/test_thread_independence.py,
+What is reproducible (tests/trackers/test_thread_independence.py,
 benchmarks/bench_threads.py): with the same seed, data and settings, a track is bit-identical
 on 1 and 2 threads, in one process or in another, with a cold or a warm numba cache, for the
 local, APF, hybrid and marker trackers (measured on an AMD EPYC with AVX-512, OpenBLAS 0.3.31

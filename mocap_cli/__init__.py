@@ -1,7 +1,8 @@
 """The command-line edge of mocap: the ``mocap`` console script and its Hydra configs.
 
-Only this package imports Hydra; :mod:`mocap` (the library) never does. The configs ship as
-package data in ``mocap_cli/conf`` (:data:`CONF_DIR`).
+Only this package imports Hydra; :mod:`mocap` (the library) never does. The configs live in
+``conf/`` at the top of the checkout and ship inside the wheel as ``mocap_cli/conf``
+(:data:`CONF_DIR` is whichever of the two this package runs from).
 """
 
 import os
@@ -9,8 +10,10 @@ from pathlib import Path
 
 from omegaconf import OmegaConf
 
-#: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...)
-CONF_DIR = Path(__file__).resolve().parent / "conf"
+_HERE = Path(__file__).resolve().parent
+#: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...): the package data
+#: of an installed wheel, else conf/ of the checkout
+CONF_DIR = _HERE / "conf" if (_HERE / "conf").is_dir() else _HERE.parent / "conf"
 
 
 def source_checkout() -> Path | None:
@@ -28,7 +31,7 @@ def data_dir() -> str:
     it runs from a checkout, else ``data`` (relative to the working directory)."""
     if os.environ.get("MOCAP_DATA"):
         return os.environ["MOCAP_DATA"]
-    beside = CONF_DIR.parent.parent / "data"
+    beside = _HERE.parent / "data"
     return str(beside) if (beside / "mismatch").is_dir() else "data"
 
 

@@ -130,7 +130,7 @@ def build(node, **kwargs):
 
 
 def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> dict | None:
-    """:func:`mocap.run_folder.run_tracking` for a composed tracking config (mocap_cli/conf/tracking.yaml)
+    """:func:`mocap.run_folder.run_tracking` for a composed tracking config (conf/tracking.yaml)
     into the Hydra run directory. check_sequence(seq): raises when the data does not suit the
     command, before any tracking."""
     from mocap.run_folder import run_tracking

@@ -6,5 +6,5 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 bash scripts/setup_env.sh
 export PYOPENGL_PLATFORM="${PYOPENGL_PLATFORM:-egl}"
-.venv/bin/ruff check mocap mocap_cli studies tests benchmarks
+.venv/bin/ruff check mocap mocap_cli experiments tests benchmarks
 exec .venv/bin/pytest "$@"

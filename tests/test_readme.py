@@ -34,10 +34,10 @@ FENCE = re.compile(r"^```(\w*)[^\n]*\n(.*?)^```", re.S | re.M)
 #: a repository path as the pages write it (not preceded by a word character, a dot or a slash,
 #: so URLs and ../ paths do not match); stops at placeholders such as <view>, {a,b} and *
 REPO_PATH = re.compile(
-    r"(?<![\w./-])((?:mocap|mocap_cli|mocap_build|docs|data|studies|scripts|benchmarks|tests)/[\w./-]*)")
+    r"(?<![\w./-])((?:mocap|mocap_cli|mocap_build|conf|experiments|docs|data|scripts|benchmarks|tests)/[\w./-]*)")
 LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 MOCAP_COMMAND = re.compile(r"(?:^|[\s;&|(]|bin/)mocap\s+(?:--debug\s+)?([a-z][\w-]*)")
-STUDY = re.compile(r"python\s+-m\s+studies\.(\w+)")
+STUDY = re.compile(r"python\s+-m\s+experiments\.(\w+)")
 INLINE_MOCAP = re.compile(r"`mocap\s+(?:--debug\s+)?([a-z][\w-]*)[^`]*`")
 CONFIG_CHOICE = re.compile(r"(?:^|\s)\+?(tracker|data|sweep)=([\w,]+)(?=\s|$)")
 
@@ -122,7 +122,7 @@ def test_mocap_commands_exist():
 
 
 def test_configs_and_studies_named_exist():
-    conf = REPO / "mocap_cli" / "conf"
+    conf = REPO / "conf"
     missing, studies = [], []
     for page in PAGES:
         for lang, code in blocks(page):
@@ -133,12 +133,11 @@ def test_configs_and_studies_named_exist():
                     missing += [f"{rel(page)}: {group}={n}" for n in names.split(",")
                                 if not (conf / group / f"{n}.yaml").is_file()]
         studies += [(rel(page), s) for s in STUDY.findall(page.read_text(encoding="utf-8"))]
-    assert not missing, "configs named that mocap_cli/conf does not have:\n" + "\n".join(missing)
+    assert not missing, "configs named that conf does not have:\n" + "\n".join(missing)
     assert studies, "the pages name no study"
-    if not (REPO / "studies" / "README.md").is_file():
-        pytest.skip("studies/ has no index yet (the studies are being moved): study modules not checked")
-    absent = [f"{p}: studies.{s}" for p, s in studies if not (REPO / "studies" / f"{s}.py").is_file()]
-    assert not absent, "studies named that studies/ does not have:\n" + "\n".join(absent)
+    assert (REPO / "experiments" / "README.md").is_file(), "experiments/ has no index (README.md)"
+    absent = [f"{p}: experiments.{s}" for p, s in studies if not (REPO / "experiments" / f"{s}.py").is_file()]
+    assert not absent, "studies named that experiments/ does not have:\n" + "\n".join(absent)
 
 
 def _pending_or_fail(missing: list[tuple[str, str]], what: str) -> None:

@@ -1,15 +1,19 @@
-"""The library without the repository (issue 10): the wheel built from the sources, installed
-into a fresh virtual environment outside the checkout (its dependencies from uv's cache,
-offline), tracks a short synthetic sequence from a working directory outside the checkout,
-with its body model, pose prior and presets read from the installed package data; and its
-``mocap`` console script (issue 23) tracks, sweeps, exports and tabulates there, with the
-Hydra configs read from the wheel."""
+"""The library without the repository: the wheel built from the sources holds every module
+and every data file of the checkout's packages and the Hydra configs of conf/; installed into
+a fresh virtual environment outside the checkout (the wheel alone, without its dependencies:
+those are read from the test's own environment, whose editable install of the checkout is
+not), from a working directory outside the checkout, it reads the prior's motion-type split
+and tracks a short synthetic sequence with its body model, pose prior and presets read from
+the installed package data; every ``mocap`` command answers ``--help`` (the Hydra ones with
+their configs read from the wheel), and the console script tracks, sweeps, exports and
+tabulates there."""
 
 import json
 import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 import zipfile
 from pathlib import Path
 
@@ -29,8 +33,11 @@ r = mocap.track(seq, tracker="hybrid", body=body, seed=0,
 shaped = body.shaped(r.estimates[0].alpha)
 joints = np.stack([shaped.pose(e.chi[None]).joints[0] for e in r.estimates])
 err = 1e3 * np.linalg.norm(joints - seq.gt.joints[: len(joints)], axis=-1).mean()
+from mocap.clips.split import read_split
+split = read_split()
 print(json.dumps({"file": mocap.__file__, "frames": len(r.estimates), "dofs": int(r.estimates[-1].chi.size),
-                  "mean_joint_error_mm": float(err), "hydra_imported": "hydra" in sys.modules}))
+                  "mean_joint_error_mm": float(err), "hydra_imported": "hydra" in sys.modules,
+                  "split": [list(split.train), list(split.held_out)]}))
 """
 
 
@@ -47,19 +54,27 @@ def test_the_wheel_installed_outside_the_checkout_tracks(tmp_path):
     src.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, src / name)
-    for package in ("mocap", "mocap_cli"):
+    for package in ("mocap", "mocap_cli", "mocap_build", "conf"):
         shutil.copytree(REPO / package, src / package,
                         ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "*.nbi", "*.nbc"))
     run([UV, "build", "--wheel", "--offline", "--out-dir", tmp_path / "dist", src])
     (wheel,) = (tmp_path / "dist").glob("mocap-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    conf = {p.relative_to(REPO).as_posix() for p in (REPO / "mocap_cli" / "conf").rglob("*.yaml")}
+    conf = {"mocap_cli/" + p.relative_to(REPO).as_posix() for p in (REPO / "conf").rglob("*.yaml")}
     assert conf and conf <= names, sorted(conf - names)           # every Hydra config ships
-    assert "mocap_cli/main.py" in names
+    tracked = subprocess.run(["git", "ls-files", "mocap", "mocap_cli"], cwd=REPO, capture_output=True,
+                             text=True).stdout.split()
+    if tracked:                                   # every module and data file of the packages
+        assert set(tracked) <= names, sorted(set(tracked) - names)
+    assert "mocap/clips/split.yaml" in names and "mocap_cli/main.py" in names
     python = getattr(sys, "_base_executable", sys.executable)
     run([UV, "venv", "--offline", "--python", python, tmp_path / "venv"])
     py = tmp_path / "venv" / "bin" / "python"
-    run([UV, "pip", "install", "--offline", "--link-mode", "hardlink", "--python", py, wheel])
+    # the dependencies: this environment's packages as a plain path (its own .pth files, the
+    # editable install of the checkout among them, are not read from there)
+    purelib = run([py, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"]).stdout.strip()
+    Path(purelib, "_test_dependencies.pth").write_text(sysconfig.get_path("purelib") + "\n")
+    run([UV, "pip", "install", "--offline", "--no-deps", "--link-mode", "copy", "--python", py, wheel])
     work = tmp_path / "elsewhere"
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
@@ -71,10 +86,19 @@ def test_the_wheel_installed_outside_the_checkout_tracks(tmp_path):
     assert out["frames"] == 4 and out["dofs"] == 22
     assert out["mean_joint_error_mm"] < 60.0, out      # started at ground truth + 3 deg noise
     assert out["hydra_imported"] is False              # no Hydra below the entry points
+    assert out["split"][0] and out["split"][1] and not set(out["split"][0]) & set(out["split"][1])
 
     # the console script, from the same folder outside the checkout
     mocap = tmp_path / "venv" / "bin" / "mocap"
     assert "track" in run([mocap, "--help"], cwd=work, env=env).stdout
+    listed = run([py, "-c", "from mocap_cli.main import COMMANDS; print(' '.join(COMMANDS))"], cwd=work,
+                 env=env).stdout.split()
+    assert len(listed) >= 10, listed
+    for command in listed:                                  # every command answers --help
+        shown = run([mocap, command, "--help"], cwd=work, env=env).stdout
+        assert shown.strip(), command
+        if "Hydra" in shown:                                # its config groups, read from the wheel
+            assert "tracker" in shown or "data" in shown, (command, shown[:500])
     tiny = ["data=walk_small", "data.frames=3", "frames=3", "tracker=apf_prior", "tracker.particles=6",
             "tracker.layers=2", "recording.every=2"]
     run([mocap, "track", *tiny, "hydra.run.dir=runs/one"], cwd=work, env={**env, "TQDM_DISABLE": "1"})

@@ -1,4 +1,4 @@
-"""Degrees of freedom of the kinematic chain, defined by configuration (``conf/body``).
+"""Degrees of freedom of the kinematic chain, defined by configuration (``mocap/presets/body``).
 
 Each revolute DOF names its joint, its axis and its anatomical limits (chi_min, chi_max)
 used by the joint-limit prior (Zhang et al. 2013, Eq. 14). Axes live in the rest body

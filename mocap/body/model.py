@@ -185,7 +185,7 @@ class BodyModel:
 
 def load_body_model(dofs: Sequence[Mapping] | Sequence[DofSpec], model_file: str | Path | None = None,
                     dtype: str = "float32", name: str = "body") -> BodyModel:
-    """Body model from configuration (``conf/body/*.yaml``): a DOF list and a model file."""
+    """Body model from configuration (``mocap/presets/body/*.yaml``): a DOF list and a model file."""
     specs = tuple(d if isinstance(d, DofSpec) else None for d in dofs)
     if any(s is None for s in specs):
         specs = dofs_from_config(dofs)

@@ -235,7 +235,7 @@ def perturb_root(xi: np.ndarray, noise: np.ndarray, root_point: np.ndarray,
                  compiled: bool | None = None) -> np.ndarray:
     """Twists (P, 6) of Delta_i exp(xi_i): Delta_i rotates by the rotation vector
     noise[i, 3:6] about the posed root point p_i = R_i root_point + t_i and translates by
-    noise[i, :3] (the root-local diffusion of :func:`mocap.trackers.anneal.perturb`)."""
+    noise[i, :3] (the root-local diffusion of :func:`mocap.trackers.apf.perturb`)."""
     xi = np.atleast_2d(np.asarray(xi, np.float64))
     noise = np.asarray(noise, np.float64)
     if _use_compiled(compiled):

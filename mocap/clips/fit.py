@@ -17,7 +17,7 @@ coefficients lie within +-``shape_bound``.
 - :func:`fit_poses`: every frame's pose at a fixed shape from given poses (block-diagonal).
 - :func:`track_poses`: frame by frame, each frame starting from the previous one's pose
   (temporal warm start), by a bounded Levenberg-Marquardt on the analytic Jacobian of the
-  twist chain (:func:`mocap.local.jacobian.point_jacobians`): ~1 ms a frame.
+  twist chain (:func:`mocap.body.jacobian.point_jacobians`): ~1 ms a frame.
 """
 
 from __future__ import annotations
@@ -29,10 +29,10 @@ from scipy.optimize import least_squares
 from scipy.sparse import block_diag
 
 from mocap.body.dofs import resolve_axes
+from mocap.body.jacobian import dof_frames, point_jacobians
 from mocap.body.kinematics import chain_transforms, posed_joints
 from mocap.body.model import BodyModel
 from mocap.body.twists import se3_exp, se3_log
-from mocap.local.jacobian import dof_frames, point_jacobians
 
 # our point names that move with the torso: the root's Kabsch start uses them
 TORSO = ("pelvis", "mid_hip", "l_hip", "r_hip", "thorax", "spine", "neck", "neck_base", "l_shoulder",
@@ -203,7 +203,7 @@ def fit_shape(fn: PointFunction, target: np.ndarray, w: np.ndarray, chi: np.ndar
 class ShapedPoints:
     """A :class:`PointFunction` at one shape, for one pose at a time: the points (S, 3) and
     their analytic Jacobian (S, 3, D) with respect to a left increment (dv, dw) of the root
-    and the angles (:func:`mocap.local.jacobian.point_jacobians`)."""
+    and the angles (:func:`mocap.body.jacobian.point_jacobians`)."""
 
     def __init__(self, fn: PointFunction, alpha: np.ndarray):
         self.fn = fn

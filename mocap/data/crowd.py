@@ -139,13 +139,13 @@ def crowd_sequence(*, body: BodyModel, frames: int = 80, seed: int = 0, noise_px
                    gap: float = 0.3, cameras: str | Mapping | None = None, layout: str = "BODY_25B",
                    name: str = "crowd") -> Sequence_:
     """The synthetic crowd (:func:`crowd_scene`) as a keypoint detector sees it: ``layout``'s
-    keypoints (:data:`mocap.data.openpose.LAYOUTS`) grouped per person, ``noise_px`` pixel
+    keypoints (:data:`mocap.body.skeletons.LAYOUTS`) grouped per person, ``noise_px`` pixel
     noise, in ``cameras`` (None: :data:`CROWD_RIG`, 5 views). The sequence has no single-person
     ground truth; its several-people truth (mocap's joints per person, NaN where absent) is
     ``seq.meta["people_truth"]`` (:class:`mocap.data.people_truth.PeopleTruth`), with the
     scene's story under ``seq.meta["crowd"]``."""
+    from mocap.body.skeletons import LAYOUTS
     from mocap.cameras import rig_from_config
-    from mocap.data.openpose import LAYOUTS
     from mocap.data.people_truth import KEY, PeopleTruth
 
     if layout not in LAYOUTS:

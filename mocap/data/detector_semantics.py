@@ -279,7 +279,7 @@ def simulate(joints: np.ndarray, names: Sequence[str], rig: Rig, semantics: Dete
 
 def gt_keypoint_names(gt) -> list[str]:
     """Our catalogue's names of a ground truth's joints (by its skeleton, e.g. humaneva15)."""
-    from mocap.eval.by_name import SKELETONS
+    from mocap.body.skeletons import SKELETONS
 
     table = SKELETONS.get(gt.skeleton or "", {})
     names = [table.get(str(n), str(n)) for n in gt.joint_names]

@@ -118,7 +118,7 @@ def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.
     if (sequence / "gt.npz").exists() and not overwrite:
         raise FileExistsError(f"{sequence / 'gt.npz'} exists (pass --overwrite to replace it)")
     if skeleton:
-        from mocap.eval.by_name import SKELETONS, resolve_mapping
+        from mocap.body.skeletons import SKELETONS, resolve_mapping
         resolve_mapping(names, [v for v in SKELETONS.get(skeleton, {}).values() if v], skeleton)
     gt = GroundTruth(alpha=None, chi=None, joints=joints, markers=None, dof_names=(),
                      joint_names=tuple(names), marker_names=(), joint_valid=valid, skeleton=skeleton)

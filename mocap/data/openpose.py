@@ -30,57 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
+from mocap.body.skeletons import LAYOUT_BONES, LAYOUTS
 from mocap.cameras import Rig, load_calibration, project, triangulate
 from mocap.data.sequence import Detections, Sequence
-
-#: Keypoint layouts: keypoint index -> landmark name of the catalogue
-#: (mocap/body/catalogue.py); None: a keypoint the tracker does not use.
-#:
-#: ============  ====  ========================================================================
-#: layout        K     detector / notes
-#: ============  ====  ========================================================================
-#: BODY_25B      25    OpenPose BODY_25B (Pose2Sim default): COCO order, then upper neck,
-#:                     head top, big toe, small toe, heel (left then right)
-#: BODY_25       25    OpenPose BODY_25: nose, neck (base), right arm, left arm, mid-hip, right
-#:                     leg, left leg, eyes, ears, feet. Same K as BODY_25B: told apart by
-#:                     :func:`layout_scores`
-#: COCO          18    OpenPose COCO-18 (BODY_25 without mid-hip and feet)
-#: COCO_17       17    MS-COCO keypoints (MMPose, RTMPose, YOLO-pose, Detectron2)
-#: HALPE_26      26    Halpe-26 (AlphaPose, RTMPose body7/halpe): COCO_17 + head top, neck
-#:                     (base), mid-hip, big toes, small toes, heels
-#: MEDIAPIPE_33  33    MediaPipe / BlazePose: face (eye corners, mouth: unused), arms, hands
-#:                     (pinky/index/thumb: unused), legs, heels, foot index (toe)
-#: ============  ====  ========================================================================
-_COCO_17 = ("nose", "l_eye", "r_eye", "l_ear", "r_ear", "l_shoulder", "r_shoulder", "l_elbow",
-            "r_elbow", "l_wrist", "r_wrist", "l_hip", "r_hip", "l_knee", "r_knee", "l_ankle", "r_ankle")
-LAYOUTS: dict[str, tuple[str | None, ...]] = {
-    "BODY_25B": (*_COCO_17, "neck", "head_top", "l_toe", "l_small_toe", "l_heel", "r_toe",
-                 "r_small_toe", "r_heel"),
-    "BODY_25": ("nose", "neck_base", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow",
-                "l_wrist", "pelvis", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle",
-                "r_eye", "l_eye", "r_ear", "l_ear", "l_toe", "l_small_toe", "l_heel", "r_toe",
-                "r_small_toe", "r_heel"),
-    "COCO": ("nose", "neck_base", "r_shoulder", "r_elbow", "r_wrist", "l_shoulder", "l_elbow",
-             "l_wrist", "r_hip", "r_knee", "r_ankle", "l_hip", "l_knee", "l_ankle", "r_eye",
-             "l_eye", "r_ear", "l_ear"),
-    "COCO_17": _COCO_17,
-    "HALPE_26": (*_COCO_17, "head_top", "neck_base", "pelvis", "l_toe", "r_toe", "l_small_toe",
-                 "r_small_toe", "l_heel", "r_heel"),
-    "MEDIAPIPE_33": ("nose", None, "l_eye", None, None, "r_eye", None, "l_ear", "r_ear", None, None,
-                     "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_wrist", "r_wrist",
-                     None, None, None, None, None, None, "l_hip", "r_hip", "l_knee", "r_knee",
-                     "l_ankle", "r_ankle", "l_heel", "r_heel", "l_toe", "r_toe"),
-}
-
-#: Pairs of landmarks joined by a short bone; a layout read with the wrong labels joins
-#: keypoints across the body (:func:`layout_scores`).
-LAYOUT_BONES: tuple[tuple[str, str], ...] = (
-    ("l_shoulder", "l_elbow"), ("l_elbow", "l_wrist"), ("r_shoulder", "r_elbow"), ("r_elbow", "r_wrist"),
-    ("l_hip", "l_knee"), ("l_knee", "l_ankle"), ("r_hip", "r_knee"), ("r_knee", "r_ankle"),
-    ("l_ankle", "l_heel"), ("r_ankle", "r_heel"), ("l_heel", "l_toe"), ("r_heel", "r_toe"),
-    ("nose", "l_eye"), ("nose", "r_eye"), ("l_eye", "l_ear"), ("r_eye", "r_ear"),
-    ("l_shoulder", "r_shoulder"), ("l_hip", "r_hip"), ("l_shoulder", "l_hip"), ("r_shoulder", "r_hip"),
-)
 
 
 class OpenPoseFormatError(ValueError):

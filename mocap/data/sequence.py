@@ -59,7 +59,7 @@ class GroundTruth:
 
     Ground truth of a real dataset may be joints by name only: ``alpha``, ``chi`` and
     ``markers`` None (empty names), ``joint_names`` in any order and any skeleton
-    (``skeleton``: a key of :data:`mocap.eval.by_name.SKELETONS`, "" for mocap's own names),
+    (``skeleton``: a key of :data:`mocap.body.skeletons.SKELETONS`, "" for mocap's own names),
     ``joint_valid`` (F, J) bool where a joint was measured (None: everywhere).
 
     Several people: ``person_names`` (P,) non-empty, ``joints`` (F, P, J, 3) and ``joint_valid``

@@ -16,7 +16,7 @@
                            dof_names, joint_names, marker_names, body; or, for a real
                            dataset, joints by name only: joint_names (J,), joints (F, J, 3),
                            optional joint_valid (F, J) bool and skeleton (a key of
-                           mocap.eval.by_name.SKELETONS; "" = mocap's own joint names);
+                           mocap.body.skeletons.SKELETONS; "" = mocap's own joint names);
                            several people: joints (F, P, J, 3), joint_valid (F, P, J),
                            optional person_names (P,) (scored per person, best assignment)
 
@@ -350,7 +350,7 @@ def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: st
         raise SequenceFormatError(f"{path}: field 'joint_valid' must be {shape[:-1]} (as 'joints' without "
                                   f"its last axis), got {gt.joint_valid.shape}")
     if gt.skeleton:
-        from mocap.eval.by_name import SKELETONS, JointNameError, resolve_mapping
+        from mocap.body.skeletons import SKELETONS, JointNameError, resolve_mapping
 
         if gt.skeleton not in SKELETONS:
             raise SequenceFormatError(f"{path}: field 'skeleton' is {gt.skeleton!r}, not a known skeleton "

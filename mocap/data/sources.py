@@ -1,4 +1,4 @@
-"""Sequences from configuration (``mocap_cli/conf/data/*.yaml``): synthetic in memory, or a folder."""
+"""Sequences from configuration (``conf/data/*.yaml``): synthetic in memory, or a folder."""
 
 from __future__ import annotations
 

@@ -153,7 +153,7 @@ class ParzenPrior:
         if not path.is_file():
             raise FileNotFoundError(f"pose prior file not found: {path} (build the procedural "
                                     "prior with `mocap train-prior`, the real-motion one with "
-                                    "studies/prior_heldout.py --ship)")
+                                    "experiments/prior_heldout.py --ship)")
         try:
             with np.load(path, allow_pickle=False) as z:
                 fmt = str(z.get("format", ""))

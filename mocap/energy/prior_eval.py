@@ -1,4 +1,4 @@
-"""Held-out log-likelihood of pose densities (issue 24): how probable a density finds poses of
+"""Held-out log-likelihood of pose densities: how probable a density finds poses of
 motion types it never saw.
 
 Every density here is a proper probability density over the same n DOFs (radians), so their

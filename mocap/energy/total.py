@@ -4,31 +4,15 @@ every term switchable and weighted from configuration (for ablations)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from mocap.energy.prior import PosePrior
 from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget
 from mocap.energy.smoothness import smoothness_energy
-from mocap.settings import check
+from mocap.energy.weights import EnergyWeights
 
 EnergyFn = Callable[[np.ndarray], np.ndarray]
-
-
-@dataclass(frozen=True)
-class EnergyWeights:
-    silhouette: float = 1.0     # w_S (0 switches E_S off)
-    smoothness: float = 0.01    # lambda of Eq. 10
-    prior: float = 0.0          # w_P (0: no pose prior, the plain APF)
-
-    def __post_init__(self) -> None:
-        for name in ("silhouette", "smoothness", "prior"):
-            check(self, name, getattr(self, name) >= 0, ">= 0 (0 switches the term off)")
-
-    @property
-    def terms(self) -> tuple[str, ...]:
-        return tuple(n for n in ("silhouette", "smoothness", "prior") if getattr(self, n))
 
 
 class FrameEnergy:

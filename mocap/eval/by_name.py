@@ -4,7 +4,7 @@ Ground truth is (F, J, 3) points with J names (and optionally an (F, J) validity
 ground-truth name maps to one of the estimate's named points: mocap's joints or, where a
 skeleton marks a point no joint sits at (top of the head, toes, the base of the neck, the
 centre of the head), a landmark of the catalogue (:mod:`mocap.body.catalogue`).
-``SKELETONS`` documents the mappings of common skeletons; names of mocap's own skeleton map
+The mappings of common skeletons are :data:`mocap.body.skeletons.SKELETONS`; names of mocap's own skeleton map
 to themselves. Points of a skeleton that mocap does not model (eyes,
 ears, nose, heels) map to ``None`` and are left out of the scores (listed in ``unscored``).
 
@@ -26,87 +26,13 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-# ground-truth name -> mocap joint or landmark name (None: not modelled by mocap)
-SKELETONS: dict[str, dict[str, str | None]] = {
-    # HumanEva-I/II, the 15 joints of the common evaluation protocol. Its pelvis is the
-    # midpoint of the hip joints (ours sits above it), its thorax the base of the neck between
-    # the clavicles (our ``thorax`` joint is mid-spine, 0.1-0.15 m lower), its head a point
-    # inside the head (ours is the skull base): the centroid of our head part.
-    "humaneva15": {"pelvis": "mid_hip", "thorax": "neck_base", "head": "head_centre",
-                   "lsho": "l_shoulder", "lelb": "l_elbow", "lwri": "l_wrist",
-                   "rsho": "r_shoulder", "relb": "r_elbow", "rwri": "r_wrist",
-                   "lhip": "l_hip", "lkne": "l_knee", "lank": "l_ankle",
-                   "rhip": "r_hip", "rkne": "r_knee", "rank": "r_ankle"},
-    # Shelf / Campus (Belagiannis et al. 2014), 14 joints
-    "shelf14": {"Right-Ankle": "r_ankle", "Right-Knee": "r_knee", "Right-Hip": "r_hip",
-                "Left-Hip": "l_hip", "Left-Knee": "l_knee", "Left-Ankle": "l_ankle",
-                "Right-Wrist": "r_wrist", "Right-Elbow": "r_elbow", "Right-Shoulder": "r_shoulder",
-                "Left-Shoulder": "l_shoulder", "Left-Elbow": "l_elbow", "Left-Wrist": "l_wrist",
-                "Bottom-Head": "neck", "Top-Head": "head_top"},
-    # MS-COCO keypoints, 17
-    "coco17": {"nose": None, "left_eye": None, "right_eye": None, "left_ear": None, "right_ear": None,
-               "left_shoulder": "l_shoulder", "right_shoulder": "r_shoulder",
-               "left_elbow": "l_elbow", "right_elbow": "r_elbow", "left_wrist": "l_wrist",
-               "right_wrist": "r_wrist", "left_hip": "l_hip", "right_hip": "r_hip",
-               "left_knee": "l_knee", "right_knee": "r_knee", "left_ankle": "l_ankle",
-               "right_ankle": "r_ankle"},
-    # OpenPose BODY_25
-    "body25": {"Nose": None, "Neck": "neck", "RShoulder": "r_shoulder", "RElbow": "r_elbow",
-               "RWrist": "r_wrist", "LShoulder": "l_shoulder", "LElbow": "l_elbow",
-               "LWrist": "l_wrist", "MidHip": "mid_hip", "RHip": "r_hip", "RKnee": "r_knee",
-               "RAnkle": "r_ankle", "LHip": "l_hip", "LKnee": "l_knee", "LAnkle": "l_ankle",
-               "REye": None, "LEye": None, "REar": None, "LEar": None, "LBigToe": "l_toe",
-               "LSmallToe": None, "LHeel": None, "RBigToe": "r_toe", "RSmallToe": None,
-               "RHeel": None},
-}
+from mocap.body.skeletons import SKELETONS, JointNameError, resolve_mapping
 
 PCP_LIMBS = {"head": ("neck", "head_top"), "torso": ("pelvis", "neck"),
              "l_upper_arm": ("l_shoulder", "l_elbow"), "r_upper_arm": ("r_shoulder", "r_elbow"),
              "l_lower_arm": ("l_elbow", "l_wrist"), "r_lower_arm": ("r_elbow", "r_wrist"),
              "l_upper_leg": ("l_hip", "l_knee"), "r_upper_leg": ("r_hip", "r_knee"),
              "l_lower_leg": ("l_knee", "l_ankle"), "r_lower_leg": ("r_knee", "r_ankle")}
-
-
-class JointNameError(ValueError):
-    """Ground-truth joint names do not match the skeleton they claim to be."""
-
-
-def resolve_mapping(gt_names: Sequence[str], known: Sequence[str], skeleton: str | None = None,
-                    required: Sequence[str] = ()) -> dict[str, str | None]:
-    """Ground-truth name -> estimate name. ``skeleton``: a key of :data:`SKELETONS` (the names
-    must be exactly that skeleton's, in any order) or None/"" (mocap's own names: every name
-    must be one of ``known``, and ``required`` must all be there). Errors name the extra,
-    missing or unknown joints."""
-    gt_names = list(gt_names)
-    dup = sorted({n for n in gt_names if gt_names.count(n) > 1})
-    if dup:
-        raise JointNameError(f"ground truth names joints more than once: {', '.join(dup)}")
-    if skeleton:
-        if skeleton not in SKELETONS:
-            raise JointNameError(f"unknown skeleton {skeleton!r} (known: {', '.join(SKELETONS)})")
-        table = SKELETONS[skeleton]
-        extra = [n for n in gt_names if n not in table]
-        missing = [n for n in table if n not in gt_names]
-        if extra or missing:
-            raise JointNameError(
-                f"ground truth is not the {skeleton} skeleton: "
-                + "; ".join(p for p in (f"unknown joints {', '.join(extra)}" if extra else "",
-                                        f"missing joints {', '.join(missing)}" if missing else "") if p))
-        mapping = {n: table[n] for n in gt_names}
-    else:
-        extra = [n for n in gt_names if n not in known]
-        missing = [n for n in required if n not in gt_names]
-        if extra or missing:
-            raise JointNameError(
-                "ground-truth joint names do not match the body's: "
-                + "; ".join(p for p in (f"unknown joints {', '.join(extra)} (known: {', '.join(known)}; "
-                                        f"or name a skeleton: {', '.join(SKELETONS)})" if extra else "",
-                                        f"missing joints {', '.join(missing)}" if missing else "") if p))
-        mapping = {n: n for n in gt_names}
-    absent = [v for v in mapping.values() if v is not None and v not in known]
-    if absent:
-        raise JointNameError(f"the estimate has no point named {', '.join(absent)}")
-    return mapping
 
 
 def _root(points: Mapping[str, np.ndarray]) -> np.ndarray | None:

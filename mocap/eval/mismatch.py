@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.body.model import BodyModel
-from mocap.eval.by_name import resolve_mapping
+from mocap.body.skeletons import resolve_mapping
 
 # mocap names of the limb joints scored on their own
 LIMB_JOINTS = ("l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle",

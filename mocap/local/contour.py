@@ -34,6 +34,7 @@ from mocap.cameras import (
 )
 from mocap.compiled import HAVE_NUMBA, njit
 from mocap.local.nearest import NearestPoints
+from mocap.local.settings import ContourSettings
 from mocap.local.solver import PointLines
 from mocap.render import get_rasterizer
 
@@ -127,13 +128,17 @@ def outline_band(mask: np.ndarray, kernel3: np.ndarray, kernel_tol: np.ndarray) 
     return out
 
 
+_D = ContourSettings()   # the defaults of the keyword arguments
+
+
 class ContourMatcher:
     """Builds contour correspondences for one body topology and rig."""
 
-    def __init__(self, body: BodyModel, rig: Rig, visibility_scale: float = 0.5,
-                 visibility_tolerance_px: float = 1.5, reject_factor: float = 3.0,
-                 min_reject_px: float = 10.0, max_distance: float = 0.08, stride: int = 1,
-                 observed_stride: int = 4):
+    def __init__(self, body: BodyModel, rig: Rig, visibility_scale: float = _D.visibility_scale,
+                 visibility_tolerance_px: float = _D.visibility_tolerance_px,
+                 reject_factor: float = _D.reject_factor, min_reject_px: float = _D.min_reject_px,
+                 max_distance: float = _D.max_distance, stride: int = _D.stride,
+                 observed_stride: int = _D.observed_stride):
         self.body, self.rig = body, rig
         mesh = trimesh.Trimesh(body.data.mean, body.faces, process=False)
         self.edge_faces = np.ascontiguousarray(mesh.face_adjacency, np.int64)           # (E, 2)

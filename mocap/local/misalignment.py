@@ -42,6 +42,7 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig, project
 from mocap.energy.silhouette import downscale_masks
 from mocap.local.nearest import NearestPoints
+from mocap.local.settings import MisalignmentSettings
 from mocap.render import get_rasterizer
 
 
@@ -89,10 +90,15 @@ def limb_chains(body: BodyModel) -> list[tuple[int, list[int]]]:
     return chains
 
 
+_D = MisalignmentSettings()   # the defaults of the keyword arguments
+
+
 class MisalignmentDetector:
-    def __init__(self, body: BodyModel, rig: Rig, threshold: float = 0.15, resolution: int = 256,
-                 tolerance_px: int = 1, scale: float | None = None, relative: bool = True,
-                 baseline_cap: float = 0.15, unexplained: float = 0.0, unexplained_window: int = 0):
+    def __init__(self, body: BodyModel, rig: Rig, threshold: float = _D.threshold,
+                 resolution: int = _D.resolution, tolerance_px: int = _D.tolerance_px,
+                 scale: float | None = _D.scale, relative: bool = _D.relative,
+                 baseline_cap: float = _D.baseline_cap, unexplained: float = _D.unexplained,
+                 unexplained_window: int = _D.unexplained_window):
         if scale is None:
             scale = min(1.0, resolution / float(np.max(rig.sizes)))
         self.body, self.threshold, self.scale = body, threshold, scale

@@ -6,9 +6,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from mocap.body.jacobian import dof_frames
 from mocap.body.model import ShapedBody
 from mocap.local import solver
-from mocap.local.jacobian import dof_frames
 from mocap.local.solver import PointLines, gauss_newton_step, merge
 
 Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]

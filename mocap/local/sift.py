@@ -20,6 +20,7 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig, pixel_rays, plucker_from_rays, project
 from mocap.energy.fallback import warn_once
 from mocap.local.raycast import HAVE_NUMBA, first_hits
+from mocap.local.settings import SiftSettings
 from mocap.local.solver import PointLines
 from mocap.render import get_rasterizer
 
@@ -62,11 +63,15 @@ class _Memory:
     bary: np.ndarray
 
 
+_D = SiftSettings()   # the defaults of the keyword arguments
+
+
 class SiftTracker:
     """Keeps each view's keypoints on the body from the last frame, matches the next frame."""
 
-    def __init__(self, body: BodyModel, rig: Rig, scale: float = 0.5, ratio: float = 0.75,
-                 max_features: int = 400, weight: float = 0.5, mask_margin_px: int = 4):
+    def __init__(self, body: BodyModel, rig: Rig, scale: float = _D.scale, ratio: float = _D.ratio,
+                 max_features: int = _D.max_features, weight: float = _D.weight,
+                 mask_margin_px: int = _D.mask_margin_px):
         self.body, self.rig = body, rig
         self.scale, self.ratio, self.weight = scale, ratio, weight
         self.sift = cv2.SIFT_create(nfeatures=max_features)

@@ -15,12 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mocap.body.jacobian import ancestors, point_jacobians
 from mocap.body.model import BodyModel
 from mocap.body.twists import hat, se3_exp, se3_log
-from mocap.local.jacobian import ancestors, point_jacobians
 from mocap.local.normal_equations import accumulate, active_dofs, compiled_available
 
-# True: the code path before issue 15 (benchmarks/bench_speed.py --compare times both)
+# True: the reference path without the compiled normal equations (benchmarks/bench_speed.py
+# --compare times both)
 LEGACY = False
 
 

@@ -1,6 +1,6 @@
 """A Rerun recording of a tracking run (``recording.rrd``), with a blueprint.
 
-What each ``recording.level`` holds (:class:`mocap.recording.factory.RecordingSettings`;
+What each ``recording.level`` holds (:class:`mocap.recording.settings.RecordingSettings`;
 timeline ``frame``, per-layer annealing values on ``anneal_step`` = frame x layers + layer):
 
 summary
@@ -59,8 +59,8 @@ from mocap.cameras import project
 from mocap.data.sequence import Sequence
 from mocap.energy.silhouette import downscale_masks
 from mocap.recording.columns import Columns
-from mocap.recording.factory import RecordingSettings
 from mocap.recording.motion_log import MotionLogger
+from mocap.recording.settings import RecordingSettings
 from mocap.recording.sink import RunInfo
 from mocap.render import get_rasterizer
 from mocap.trackers.base import Estimate, Frame

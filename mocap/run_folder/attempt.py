@@ -10,9 +10,9 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-from mocap.eval.resume import drop_previous
 from mocap.run_folder.manifest import write_manifest
 from mocap.run_folder.read import write_json
+from mocap.run_folder.resume import drop_previous
 
 #: the note added to an exception raised after every check passed (while tracking or writing the
 #: outputs): the command line shows such errors with their traceback (mocap_cli/errors.py)

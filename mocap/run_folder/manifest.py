@@ -10,7 +10,7 @@ flag it (:func:`require_complete`).
 A re-run first moves an earlier complete run into ``previous_run/`` (:data:`PREVIOUS`) with
 its manifest; it is removed once the new run is complete, and kept (complete, verifiable)
 when the new run fails, is interrupted or killed. A resumed sweep takes it back when it is
-the configuration asked for (:func:`mocap.eval.resume.restore_previous`).
+the configuration asked for (:func:`mocap.run_folder.resume.restore_previous`).
 """
 
 from __future__ import annotations

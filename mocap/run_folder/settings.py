@@ -1,4 +1,4 @@
-"""A tracking run's own settings (what ``mocap_cli/conf/tracking.yaml`` documents beside the body,
+"""A tracking run's own settings (what ``conf/tracking.yaml`` documents beside the body,
 data and tracker): frozen dataclasses, the only place their defaults are written, built and
 checked once from the run's configuration (:meth:`RunSettings.from_config`; each error one line
 naming the setting, its value and what is allowed).
@@ -9,7 +9,7 @@ naming the setting, its value and what is allowed).
     init.noise_deg, init.noise_translation, init.cache
     recording.*                      :func:`mocap.recording.factory.recording_settings`
     motion.vertices                  keep the posed mesh per frame in motion.npz
-    skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.eval.resume`)
+    skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.run_folder.resume`)
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mocap.recording.factory import RecordingSettings, recording_settings
+from mocap.recording.settings import RecordingSettings, recording_settings
 from mocap.trackers.run import INIT_MODES, StartSettings  # noqa: F401  (INIT_MODES: re-exported)
 
 RESUME_ON_CHANGE = ("rerun", "fail")

@@ -10,7 +10,7 @@ several-people run (the recording of a frame, the motion file, the metrics) are 
 chosen by the tracker's answer (:attr:`mocap.trackers.contract.Tracker.several_people`).
 
 The run's settings are read from ``config``, the resolved configuration as plain values (what
-metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents the keys), as
+metrics.json stores under ``"config"``; conf/tracking.yaml documents the keys), as
 :class:`mocap.run_folder.settings.RunSettings`.
 
 Settings are checked before any work (:func:`check_settings`). A re-run moves an earlier
@@ -39,14 +39,6 @@ from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.quality import quality_flags
-from mocap.eval.resume import (
-    config_changes,
-    restore_previous,
-    restore_stored_config,
-    run_state,
-    set_aside,
-)
-from mocap.eval.run_metadata import run_metadata
 from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
 from mocap.export.people_motion import people_motion_arrays, write_people_motion
@@ -54,7 +46,15 @@ from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
 from mocap.run_folder.attempt import run_attempt, seal_run
 from mocap.run_folder.manifest import manifest_problem
+from mocap.run_folder.metadata import run_metadata
 from mocap.run_folder.people import people_metrics
+from mocap.run_folder.resume import (
+    config_changes,
+    restore_previous,
+    restore_stored_config,
+    run_state,
+    set_aside,
+)
 from mocap.run_folder.settings import INIT_MODES, RunSettings, check_settings  # noqa: F401  (re-exported)
 from mocap.threads import resolve_threads, thread_budget
 from mocap.trackers.contract import Tracker

@@ -1,7 +1,7 @@
 """What a tracker step reports, as frozen dataclasses (plain data, no rerun, no I/O).
 
 :class:`StepDiagnostics` is ``Estimate.diagnostics``: energies per term, the annealed
-search (:class:`mocap.trackers.anneal.AnnealTrace`, one :class:`LayerTrace` per layer), the
+search (:class:`mocap.trackers.apf.AnnealTrace`, one :class:`LayerTrace` per layer), the
 local optimisation (:class:`LocalTrace`), decisions (:class:`Misalignment`: misaligned
 limbs, APF called), a shape refinement (:class:`ShapeUpdate`), the marker tracker's
 landmarks (:class:`LandmarkReport`), a failure injected by an experiment
@@ -22,7 +22,7 @@ from numbers import Number
 
 import numpy as np
 
-from mocap.trackers.anneal import AnnealTrace, LayerTrace  # noqa: F401  (LayerTrace re-exported)
+from mocap.trackers.apf import AnnealTrace, LayerTrace  # noqa: F401  (LayerTrace re-exported)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Tracker constructors. ``build_*``: a tracker from its settings dataclass (the presets of
 :mod:`mocap.trackers.presets` use them); ``make_*``: the same from keyword settings, checked and
-made into the settings dataclass first (``mocap_cli/conf/tracker/*.yaml`` name them in
+made into the settings dataclass first (``conf/tracker/*.yaml`` name them in
 ``_target_``; Hydra calls them with ``body``, ``rig``, ``rng`` and the config's keys). Every
 default is the settings dataclass's (:mod:`mocap.trackers.tracker_settings`,
 :mod:`mocap.trackers.markers.settings`)."""
@@ -16,9 +16,9 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import ParzenPrior, PosePrior, default_prior_path
 from mocap.settings import settings_from_mapping
-from mocap.trackers.apf_tracker import APFTracker, internal_scale  # noqa: F401  (internal_scale: re-exported)
 from mocap.trackers.hybrid_tracker import HybridTracker, library_poses
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.silhouette_tracker import APFTracker, internal_scale  # noqa: F401  (internal_scale: re-exported)
 from mocap.trackers.tracker_settings import (
     APFTrackerSettings,
     HybridSettings,

@@ -1,4 +1,4 @@
-"""Injected tracking failures, for recovery experiments (``experiments/recovery.py``).
+"""Injected tracking failures, for recovery experiments (``mocap recovery``).
 
 :class:`FailureInjection` is a tracker that passes frames on to another one and injects
 failures on the way, through the tracker interface only:

@@ -29,14 +29,14 @@ from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.energy.smoothness import predict_constant_velocity
 from mocap.energy.total import FrameEnergy
 from mocap.local.misalignment import LimbCheck, limb_chains
-from mocap.trackers.anneal import anneal, perturb
-from mocap.trackers.apf_tracker import diffusion_std, internal_scale
+from mocap.trackers.apf import anneal, perturb
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import SearchBudget
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.silhouette_tracker import diffusion_std, internal_scale
 from mocap.trackers.tracker_settings import HybridSettings
 
 
@@ -48,7 +48,7 @@ def restart_fraction(value: float) -> float:
 
 
 class RestartFirstLayer:
-    """The APF's diffusion (:func:`~mocap.trackers.anneal.perturb`), except on its first call
+    """The APF's diffusion (:func:`~mocap.trackers.apf.perturb`), except on its first call
     (the first layer) a share ``fraction`` of the particles draw their free joint angles
     anew: the limb being searched is known to be wrong, and a Gaussian of a few degrees around
     it cannot reach a forearm folded the wrong way. Of those, a share ``from_library`` take the

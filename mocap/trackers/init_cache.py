@@ -167,3 +167,25 @@ def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = No
         raise ValueError(f"tracker {tracker.name!r} cannot initialise itself")
     est, info = start(frame)
     return est[0].chi, est[0].alpha, info
+
+
+class SilhouetteInitialisation:
+    """Mixin of the silhouette trackers: their self-initialisation from a frame's masks
+    (``initializer``: :class:`SilhouetteStart`) and the validation of
+    an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``."""
+
+    def initializer(self, cache=None):
+        """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
+        ``cache`` (None: not cached)."""
+        return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng), cache)
+
+    def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
+        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
+        est, _ = self.initializer()(frame)
+        return est[0].chi, est[0].alpha
+
+    def checked_pose(self, chi: np.ndarray) -> np.ndarray:
+        chi = np.asarray(chi, np.float64)
+        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
+            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
+        return chi

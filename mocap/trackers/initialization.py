@@ -31,58 +31,22 @@ hypothesis, its lead when that was dropped).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for
+from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.twists import se3_log
 from mocap.cameras import Rig, pixel_rays
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
-from mocap.settings import check
-from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.apf import run_apf
 from mocap.trackers.shape_search import shape_energy, shifted  # noqa: F401  (shifted re-exported)
+from mocap.trackers.tracker_settings import APFSettings, InitSettings
 
 #: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
 #: inputs and settings: part of the initialisation cache's key (:mod:`mocap.trackers.init_cache`)
-#: a kept hypothesis whose fine E_S is more than this (relative) above the best one's after a
-#: round is dropped (InitSettings.prune_margin). On the mismatch and real-motion DEV sequences
-#: (seed 0) the round-1 leader won in the end wherever it led by 18 % or more (leads of 18-160 %),
-#: and lost twice where it led by 10 %: 0.25 keeps those close calls (docs/results/speed.md).
-PRUNE_MARGIN = 0.25
-
-INITIALIZER_VERSION = 3      # 3: pose searches on the energy mesh, compiled shape energy, pruning
-
-
-@dataclass(frozen=True)
-class InitSettings:
-    resolution: int = 256
-    headings: int = 12
-    rounds: int = 2
-    pose_particles: int = 60
-    pose_layers: int = 10
-    shape_particles: int = 40
-    shape_layers: int = 8
-    shape_components: int = 8
-    local_iterations: int = 10
-    hypotheses: int = 2           # distinct headings refined (each also at +180 deg, and with
-                                  # its limbs swapped); 0: one hypothesis, the best heading only
-    keep: int = 2                 # hypotheses taken through the shape/pose rounds
-    select_resolution: int = 512  # E_S resolution that ranks hypotheses (px, longest side)
-    partitioned: bool = True      # pose search torso first, then limb by limb, then all DOFs
-    shape_translate: float = 0.2  # the shape search also shifts the body by up to this (m); 0: off
-    energy_mesh: int | None = ENERGY_MESH_FACES  # pose searches' E_S mesh (triangles); None: full mesh
-    prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
-                                  # E_S) behind the best after a round; None: never
-
-    def __post_init__(self):
-        check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
-              "null (the full mesh) or >= 4 triangles")
-        check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
-              "null (never) or >= 0 (relative)")
+INITIALIZER_VERSION = 3      # raised when the initialiser's results change (cached poses are redone)
 
 
 def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -157,7 +121,7 @@ def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.n
 
 
 def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rng: np.random.Generator,
-                                settings: InitSettings = InitSettings()
+                                settings: InitSettings = InitSettings()  # noqa: B008 (frozen)
                                 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """(chi (D,), alpha (K,), diagnostics) estimated from one frame's masks (C, H, W)."""
     if masks is None:
@@ -314,27 +278,3 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     leads += [state[i][0]["lead_when_pruned"] for i in range(len(state)) if i not in alive]
     diag["margin"] = float(min(leads)) if leads else None
     return chi, alpha, diag
-
-
-class SilhouetteInitialisation:
-    """Mixin of the silhouette trackers: their self-initialisation from a frame's masks
-    (``initializer``: :class:`mocap.trackers.init_cache.SilhouetteStart`) and the validation of
-    an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``."""
-
-    def initializer(self, cache=None):
-        """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
-        ``cache`` (None: not cached)."""
-        from mocap.trackers.init_cache import Cached, SilhouetteStart
-
-        return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng), cache)
-
-    def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
-        """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
-        est, _ = self.initializer()(frame)
-        return est[0].chi, est[0].alpha
-
-    def checked_pose(self, chi: np.ndarray) -> np.ndarray:
-        chi = np.asarray(chi, np.float64)
-        if chi.shape != (self.body.num_dofs,) or not np.all(np.isfinite(chi)):
-            raise ValueError(f"initial pose must be a finite ({self.body.num_dofs},) vector")
-        return chi

@@ -19,8 +19,6 @@ today's, bit for bit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from mocap.body.catalogue import make_landmark_set
@@ -37,53 +35,10 @@ from mocap.energy.markers import (
 from mocap.local.keypoints import keypoint_lines
 from mocap.local.misalignment import limb_chains
 from mocap.local.solver import PointLines
-from mocap.settings import check
-from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
+from mocap.trackers.markers.offsets import local_residuals, robust_offsets
 from mocap.trackers.markers.settings import MarkerInit
 from mocap.trackers.markers.startup import pinhole_rig, shape_from_landmarks, triangulate_candidates
-
-
-@dataclass(frozen=True)
-class KeypointSettings:
-    """The hybrid's keypoint cue (module docstring): ``weight`` of one keypoint correspondence
-    against one contour correspondence in the local optimiser (0: the cue is off, today's
-    hybrid); ``energy``: the weight of the marker likelihood (in [0, 1]) beside E_S in the APF
-    and its acceptance test; ``flag``: a landmark further than this share of the gate from its
-    detections (median over views) makes its limb chain misaligned (0: off); ``gate``: the
-    outlier gate tau as a fraction of the image diagonal (as the marker tracker's);
-    ``use_confidence``, ``min_confidence``, ``landmarks`` (``auto``: every detection label the
-    catalogue knows) and the learned ``offsets`` as the marker tracker's; ``init``: refine the
-    self-initialisation's pose with the cue (a search of every limb chain, then local steps);
-    ``shape_std``: with ``init``, first fit the body shape to the distances between the
-    keypoints triangulated in frame 0 that no pose changes (the marker tracker's start-up fit),
-    under a normal prior centred on the silhouettes' shape with this standard deviation (in the
-    model's standardised units; 0: keep the silhouettes' shape). Silhouettes measure the body's
-    outline, keypoints its bone lengths, which the outline hardly constrains."""
-
-    weight: float = 0.0
-    energy: float = 1.0
-    flag: float = 0.5
-    gate: float = 0.04
-    use_confidence: bool = True
-    min_confidence: float = 0.0
-    landmarks: str | tuple = "auto"
-    offsets: OffsetLearning = OffsetLearning()
-    init: bool = True
-    shape_std: float = 0.0
-
-    def __post_init__(self) -> None:
-        check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")
-        check(self, "energy", self.energy >= 0, ">= 0")
-        check(self, "flag", 0.0 <= self.flag <= 1.0, "[0, 1] of the gate (0: off)")
-        check(self, "gate", 0.0 < self.gate <= 1.0, "(0, 1], a fraction of the image diagonal")
-        check(self, "min_confidence", 0.0 <= self.min_confidence <= 1.0, "[0, 1]")
-        check(self, "shape_std", self.shape_std >= 0, ">= 0 (0: the silhouettes' shape)")
-        check(self, "landmarks", isinstance(self.landmarks, str | tuple),
-              "a landmark set's name (auto) or a list of landmark names / entries")
-
-    @property
-    def enabled(self) -> bool:
-        return self.weight > 0
+from mocap.trackers.tracker_settings import KeypointSettings
 
 
 def check_detections(seq, name: str) -> None:

@@ -21,9 +21,9 @@ from mocap.settings import fields_of, with_overrides
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Needs, OnePerson
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
-from mocap.trackers.initialization import InitSettings, SilhouetteInitialisation
+from mocap.trackers.init_cache import SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
-from mocap.trackers.tracker_settings import LocalSettings, LocalStepSettings
+from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings
 
 
 class LocalTracker(SilhouetteInitialisation, OnePerson):

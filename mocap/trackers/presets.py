@@ -1,7 +1,7 @@
 """The named trackers: each is a settings object (the settings dataclass's defaults with a
 preset's differences applied) and the function that builds the tracker from it.
 
-``mocap_cli/conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
+``conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
 differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``, ``apf_prior_real``
 ``apf_prior``; ``hybrid_prior`` composes ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``,
 ``hybrid_kp`` ``hybrid``);

@@ -21,8 +21,8 @@ from mocap.cameras import Rig, camera_coordinates, project
 from mocap.energy import fused
 from mocap.energy.silhouette import SilhouetteEnergy, SilhouetteTarget, chamfer_energy, silhouette_target
 from mocap.render import get_rasterizer
-from mocap.settings import check
-from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.apf import run_apf
+from mocap.trackers.tracker_settings import APFSettings, ShapeRefinement
 
 
 def shifted(chi: np.ndarray, shift: np.ndarray) -> np.ndarray:
@@ -75,37 +75,6 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
         return total / len(chis)
 
     return energy
-
-
-@dataclass(frozen=True)
-class ShapeRefinement:
-    """Shape refinement while tracking. ``every``: frames between refinements (0: off);
-    the last ``keyframes`` frames, one every ``stride`` frames, are scored; ``components``:
-    shape coefficients searched; an annealed search of ``particles`` x ``layers`` with a
-    first-layer spread ``std`` (PCA units) per coefficient and ``shift`` (m) on the shared
-    3D offset, on silhouettes at ``resolution`` px (longest image side); the result is kept
-    when it lowers the keyframes' E_S at ``check_resolution`` px by more than ``min_gain``
-    (relative)."""
-
-    every: int = 0
-    keyframes: int = 6
-    stride: int = 3
-    components: int = 8
-    particles: int = 30
-    layers: int = 6
-    std: float = 0.3
-    shift: float = 0.02
-    resolution: int = 256
-    check_resolution: int = 512
-    min_gain: float = 0.01
-
-    def __post_init__(self):
-        check(self, "every", self.every >= 0, "an integer >= 0 frames (0: off)")
-        for name in ("keyframes", "stride", "components", "layers", "resolution", "check_resolution"):
-            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
-        check(self, "particles", self.particles >= 2, "an integer >= 2")
-        check(self, "std", self.std > 0, "> 0")
-        check(self, "shift", self.shift >= 0, ">= 0 m")
 
 
 @dataclass(frozen=True)

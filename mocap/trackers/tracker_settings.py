@@ -3,13 +3,14 @@ defaults are written (``local``: :class:`LocalSettings`; ``apf``, ``apf_25x10``,
 ``apf_prior``: :class:`APFTrackerSettings`; ``hybrid``: :class:`HybridSettings`; the marker
 tracker's are in :mod:`mocap.trackers.markers.settings`).
 
-Nested settings reuse the dataclasses of what they configure: the annealing search
-(:class:`~mocap.trackers.anneal.APFSettings`, whose fields the search settings inherit, so
-that ``particles`` stays a top-level key), the energy weights, the silhouette
-initialisation, the shape refinement. The contour matcher, the SIFT tracker and the
-misalignment check take keyword arguments; their settings classes are made from those
-signatures (:func:`~mocap.settings.signature_settings`), so their defaults stay
-written there. Build any of them from a mapping with
+Nested settings are the settings of the trackers' parts, written here too: the annealing
+search (:class:`APFSettings`, whose fields the search settings inherit, so that
+``particles`` stays a top-level key), the silhouette initialisation (:class:`InitSettings`),
+the shape refinement (:class:`ShapeRefinement`), the keypoint cue (:class:`KeypointSettings`)
+and the offset learning (:class:`OffsetLearning`); the energy weights
+(:mod:`mocap.energy.weights`) and the local optimiser's parts (:mod:`mocap.local.settings`)
+are those packages'. This module imports no implementation: the parts import their settings
+from here. Build any of them from a mapping with
 :func:`~mocap.settings.settings_from_mapping`; the presets are in
 :mod:`mocap.trackers.presets`.
 """
@@ -19,15 +20,154 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mocap.body.energy_mesh import ENERGY_MESH_FACES
-from mocap.energy.total import EnergyWeights
-from mocap.local.contour import ContourMatcher
-from mocap.local.misalignment import MisalignmentDetector
-from mocap.local.sift import SiftTracker
-from mocap.settings import check, fields_of, signature_settings
-from mocap.trackers.anneal import APFSettings
-from mocap.trackers.initialization import InitSettings
-from mocap.trackers.keypoint_cue import KeypointSettings
-from mocap.trackers.shape_search import ShapeRefinement
+from mocap.energy.weights import EnergyWeights
+from mocap.local.settings import ContourSettings, MisalignmentSettings, SiftSettings
+from mocap.settings import check, fields_of
+
+
+@dataclass(frozen=True)
+class APFSettings:
+    particles: int = 100
+    layers: int = 15
+    survival: float = 0.5          # target survival rate alpha
+    diffusion: float = 0.7         # diffusion std = diffusion * spread of the resampled set
+    shrink: float = 0.9            # ... times shrink^m in layer m
+    min_std_fraction: float = 0.05  # floor: this fraction of the initial std (times shrink^m)
+    estimate: str = "mean"          # "mean": weighted mean of the last layer; "best": the
+                                    # lowest-energy particle seen in any layer
+
+    def __post_init__(self) -> None:
+        check(self, "particles", self.particles >= 2, "an integer >= 2")
+        check(self, "layers", self.layers >= 1, "an integer >= 1")
+        check(self, "survival", 0.0 < self.survival < 1.0, "(0, 1)")
+        check(self, "diffusion", self.diffusion > 0.0, "> 0")
+        check(self, "shrink", 0.0 < self.shrink <= 1.0, "(0, 1]")
+        check(self, "min_std_fraction", self.min_std_fraction >= 0.0, ">= 0")
+        check(self, "estimate", self.estimate in ("mean", "best"), "'mean' or 'best'")
+
+
+#: a kept hypothesis whose fine E_S is more than this (relative) above the best one's after a
+#: round is dropped (InitSettings.prune_margin); the measurements behind it are in
+#: docs/results/speed.md
+PRUNE_MARGIN = 0.25
+
+
+@dataclass(frozen=True)
+class InitSettings:
+    resolution: int = 256
+    headings: int = 12
+    rounds: int = 2
+    pose_particles: int = 60
+    pose_layers: int = 10
+    shape_particles: int = 40
+    shape_layers: int = 8
+    shape_components: int = 8
+    local_iterations: int = 10
+    hypotheses: int = 2           # distinct headings refined (each also at +180 deg, and with
+                                  # its limbs swapped); 0: one hypothesis, the best heading only
+    keep: int = 2                 # hypotheses taken through the shape/pose rounds
+    select_resolution: int = 512  # E_S resolution that ranks hypotheses (px, longest side)
+    partitioned: bool = True      # pose search torso first, then limb by limb, then all DOFs
+    shape_translate: float = 0.2  # the shape search also shifts the body by up to this (m); 0: off
+    energy_mesh: int | None = ENERGY_MESH_FACES  # pose searches' E_S mesh (triangles); None: full mesh
+    prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
+                                  # E_S) behind the best after a round; None: never
+
+    def __post_init__(self):
+        check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
+              "null (the full mesh) or >= 4 triangles")
+        check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
+              "null (never) or >= 0 (relative)")
+
+
+@dataclass(frozen=True)
+class ShapeRefinement:
+    """Shape refinement while tracking. ``every``: frames between refinements (0: off);
+    the last ``keyframes`` frames, one every ``stride`` frames, are scored; ``components``:
+    shape coefficients searched; an annealed search of ``particles`` x ``layers`` with a
+    first-layer spread ``std`` (PCA units) per coefficient and ``shift`` (m) on the shared
+    3D offset, on silhouettes at ``resolution`` px (longest image side); the result is kept
+    when it lowers the keyframes' E_S at ``check_resolution`` px by more than ``min_gain``
+    (relative)."""
+
+    every: int = 0
+    keyframes: int = 6
+    stride: int = 3
+    components: int = 8
+    particles: int = 30
+    layers: int = 6
+    std: float = 0.3
+    shift: float = 0.02
+    resolution: int = 256
+    check_resolution: int = 512
+    min_gain: float = 0.01
+
+    def __post_init__(self):
+        check(self, "every", self.every >= 0, "an integer >= 0 frames (0: off)")
+        for name in ("keyframes", "stride", "components", "layers", "resolution", "check_resolution"):
+            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
+        check(self, "particles", self.particles >= 2, "an integer >= 2")
+        check(self, "std", self.std > 0, "> 0")
+        check(self, "shift", self.shift >= 0, ">= 0 m")
+
+
+@dataclass(frozen=True)
+class OffsetLearning:
+    """frames: tracked frames to learn from (0: off); max_norm: metres; min_samples: per
+    landmark."""
+
+    frames: int = 0
+    max_norm: float = 0.08
+    min_samples: int = 3
+
+    def __post_init__(self) -> None:
+        check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
+        check(self, "max_norm", self.max_norm >= 0, ">= 0 m")
+        check(self, "min_samples", self.min_samples >= 1, "an integer >= 1")
+
+
+@dataclass(frozen=True)
+class KeypointSettings:
+    """The hybrid's keypoint cue (module docstring): ``weight`` of one keypoint correspondence
+    against one contour correspondence in the local optimiser (0: the cue is off, today's
+    hybrid); ``energy``: the weight of the marker likelihood (in [0, 1]) beside E_S in the APF
+    and its acceptance test; ``flag``: a landmark further than this share of the gate from its
+    detections (median over views) makes its limb chain misaligned (0: off); ``gate``: the
+    outlier gate tau as a fraction of the image diagonal (as the marker tracker's);
+    ``use_confidence``, ``min_confidence``, ``landmarks`` (``auto``: every detection label the
+    catalogue knows) and the learned ``offsets`` as the marker tracker's; ``init``: refine the
+    self-initialisation's pose with the cue (a search of every limb chain, then local steps);
+    ``shape_std``: with ``init``, first fit the body shape to the distances between the
+    keypoints triangulated in frame 0 that no pose changes (the marker tracker's start-up fit),
+    under a normal prior centred on the silhouettes' shape with this standard deviation (in the
+    model's standardised units; 0: keep the silhouettes' shape). Silhouettes measure the body's
+    outline, keypoints its bone lengths, which the outline hardly constrains."""
+
+    weight: float = 0.0
+    energy: float = 1.0
+    flag: float = 0.5
+    gate: float = 0.04
+    use_confidence: bool = True
+    min_confidence: float = 0.0
+    landmarks: str | tuple = "auto"
+    offsets: OffsetLearning = OffsetLearning()
+    init: bool = True
+    shape_std: float = 0.0
+
+    def __post_init__(self) -> None:
+        check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")
+        check(self, "energy", self.energy >= 0, ">= 0")
+        check(self, "flag", 0.0 <= self.flag <= 1.0, "[0, 1] of the gate (0: off)")
+        check(self, "gate", 0.0 < self.gate <= 1.0, "(0, 1], a fraction of the image diagonal")
+        check(self, "min_confidence", 0.0 <= self.min_confidence <= 1.0, "[0, 1]")
+        check(self, "shape_std", self.shape_std >= 0, ">= 0 (0: the silhouettes' shape)")
+        check(self, "landmarks", isinstance(self.landmarks, str | tuple),
+              "a landmark set's name (auto) or a list of landmark names / entries")
+
+    @property
+    def enabled(self) -> bool:
+        return self.weight > 0
+
 
 #: the first-layer diffusion std: (twist v (m), twist omega (rad), joint angles (rad))
 Std3 = tuple[float, float, float]
@@ -98,20 +238,6 @@ class APFTrackerSettings(SilhouetteSearchSettings):
         super().__post_init__()
         _check_std(self)
         check(self, "prediction_damping", 0.0 <= self.prediction_damping <= 1.0, "[0, 1]")
-
-
-ContourSettings = signature_settings(
-    "ContourSettings", ContourMatcher.__init__, skip=("body", "rig"),
-    doc="The contour matcher's options (:class:`mocap.local.contour.ContourMatcher`, its defaults).",
-    module=__name__)
-SiftSettings = signature_settings(
-    "SiftSettings", SiftTracker.__init__, skip=("body", "rig"), extra=(("enabled", bool, True),),
-    doc="SIFT correspondences (``enabled``) and the options of :class:`mocap.local.sift.SiftTracker`.",
-    module=__name__)
-MisalignmentSettings = signature_settings(
-    "MisalignmentSettings", MisalignmentDetector.__init__, skip=("body", "rig"),
-    doc="The misalignment check's options (:class:`mocap.local.misalignment.MisalignmentDetector`).",
-    module=__name__)
 
 
 @dataclass(frozen=True)

@@ -5,13 +5,13 @@ masks), and segmentation into silhouettes.
 - :mod:`mocap.video.detect` - ``mocap detect``: videos -> a Pose2Sim-style folder of keypoints + masks
 - :mod:`mocap.video.person_masks` - person masks from the detector combined with GrabCut,
   a background model and multi-view carving
-- decoding (:class:`VideoFrames`) and the background / GrabCut segmentation
-  (:func:`segment_sequence`) are :mod:`mocap.data.video` and :mod:`mocap.data.segmentation`,
-  re-exported here (kept in place so that existing imports keep working).
+- :mod:`mocap.video.frames` - lazy decoding (:class:`VideoFrames`), videos matched to cameras
+- :mod:`mocap.video.segmentation` - background / GrabCut segmentation (:func:`segment_sequence`)
+- :mod:`mocap.video.sequence` - a recording given as videos + calibration as a ``Sequence``
 """
 
-from mocap.data.segmentation import SegmentationResult, iou, segment_sequence
-from mocap.data.video import VideoError, VideoFrames, VideoInfo, video_info
+from mocap.video.frames import VideoError, VideoFrames, VideoInfo, video_info
+from mocap.video.segmentation import SegmentationResult, iou, segment_sequence
 
 __all__ = ["SegmentationResult", "VideoError", "VideoFrames", "VideoInfo", "iou", "segment_sequence",
            "video_info"]

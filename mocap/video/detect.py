@@ -1,7 +1,7 @@
 """``mocap detect``'s work: calibrated videos (one per camera) -> per-view 2D keypoints
 (OpenPose JSON, ``MEDIAPIPE_33`` layout, with confidences) and person masks, written into a
 Pose2Sim-style folder that :func:`mocap.data.openpose.load_openpose_sequence` and
-:func:`mocap.data.video_sequence.load_video_sequence` read.
+:func:`mocap.video.sequence.load_video_sequence` read.
 
     plan = plan_detection("../shared/data/pose2sim-demo", "outputs/detect/demo")   # all checks
     summary = run_detection(plan)                                                   # the work
@@ -40,9 +40,8 @@ import numpy as np
 
 from mocap.cameras import load_calibration, project, triangulate
 from mocap.data.openpose import _find_calibration
-from mocap.data.video import VideoError, VideoFrames, frame_range, video_info
-from mocap.data.video_sequence import match_videos
 from mocap.video.detector import NUM_KEYPOINTS, DetectorSettings, PoseDetector
+from mocap.video.frames import VideoError, VideoFrames, frame_range, match_videos, video_info
 
 FORMAT = "mocap-detect-v1"
 KEYPOINTS_DIR, MASKS_DIR, RECORDS_DIR = "pose", "masks", "detect"

@@ -1,5 +1,5 @@
 """Person masks from the detector's soft segmentation combined with the silhouette pipeline of
-:mod:`mocap.data.segmentation`: GrabCut seeded by the detector's probability and keypoints,
+:mod:`mocap.video.segmentation`: GrabCut seeded by the detector's probability and keypoints,
 an optional background model, multi-view carving and clean-up.
 
     masks = combine_masks(images, prob, kps, rig, grabcut=True, background="masked_median",
@@ -7,7 +7,7 @@ an optional background model, multi-view carving and clean-up.
 
 Inputs: images (F, C, H, W, 3) uint8 RGB, prob (F, C, H, W) float person probability from
 :class:`mocap.video.detector.PoseDetector` (resized to the images), kps[f][c]: {landmark name:
-(2,) pixel} of the subject (:func:`mocap.data.segmentation.keypoint_dict`).
+(2,) pixel} of the subject (:func:`mocap.video.segmentation.keypoint_dict`).
 
 GrabCut labels (per image, in the person's box grown by ``band`` x its size): sure foreground
 where prob >= ``sure_fg`` and on the keypoint skeleton; probable foreground where prob >= 0.5
@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from mocap.cameras import Rig
-from mocap.data.segmentation import (
+from mocap.video.segmentation import (
     carve_views,
     clean_mask,
     colour_distance,

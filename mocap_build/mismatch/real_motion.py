@@ -526,7 +526,7 @@ def render(spec: RealMotionSpec, clips: Path, model=None, rig=None,
 def detection_labels() -> tuple[str, ...]:
     """The detections' label names: our catalogue's names of the HumanEva-15 joints (so the
     marker tracker's ``landmarks: auto`` resolves them)."""
-    from mocap.eval.by_name import SKELETONS
+    from mocap.body.skeletons import SKELETONS
 
     return tuple(SKELETONS["humaneva15"][n] for n in GT_JOINTS)
 

@@ -19,7 +19,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mocap.eval.ablation import collect, markdown, plot, table_rows, write_csv
+from mocap.run_folder.sweep import collect, markdown, table_rows, write_csv
+from mocap.run_folder.sweep_plots import plot
 from mocap_cli.errors import ArgumentParser
 
 

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import argparse
 
-from mocap.data.openpose import LAYOUTS, convert_pose2sim
+from mocap.body.skeletons import LAYOUTS
+from mocap.data.openpose import convert_pose2sim
 from mocap_cli.errors import ArgumentParser
 
 

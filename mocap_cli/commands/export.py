@@ -15,7 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from mocap.export import FORMATS, export_run
+from mocap.export import FORMATS
+from mocap.run_folder.export import export_run
 from mocap_cli.errors import ArgumentParser
 
 

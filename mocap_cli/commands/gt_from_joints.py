@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from mocap.body.skeletons import SKELETONS
 from mocap.data.named_joints import add_ground_truth, read_named_joints, sequence_info
-from mocap.eval.by_name import SKELETONS
 from mocap_cli.errors import ArgumentParser
 
 

@@ -1,4 +1,4 @@
-"""``mocap recovery``: recovery from injected tracking failures (issue 5): a frame skip, then a
+"""``mocap recovery``: recovery from injected tracking failures: a frame skip, then a
 large pose perturbation of the tracker's state, on a sequence with ground truth. The same run
 as ``mocap track`` (:func:`mocap.run_folder.run_tracking`: motion.npz, metrics.json, recording.rrd)
 with the tracker wrapped in :class:`mocap.trackers.failures.FailureInjection`.

@@ -1,7 +1,7 @@
 """``mocap segment``: segment a recording into silhouettes and write a sequence folder with the
 masks.
 
-    mocap segment                                  # Pose2Sim demo (mocap_cli/conf/segment.yaml)
+    mocap segment                                  # Pose2Sim demo (conf/segment.yaml)
     mocap segment segmentation.method=knn data.stop=100 data.step=1
     mocap segment background_clip=/path/to/empty_scene_videos segmentation.background=median
 
@@ -17,9 +17,9 @@ from dataclasses import replace
 
 from omegaconf import DictConfig, OmegaConf
 
-from mocap.data.segmentation import segment_sequence
 from mocap.data.sequence_io import write_sequence
-from mocap.data.video_sequence import load_background_clip
+from mocap.video.segmentation import segment_sequence
+from mocap.video.sequence import load_background_clip
 from mocap_cli.hydra_edge import build, run_command
 
 

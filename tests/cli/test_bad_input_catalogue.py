@@ -244,7 +244,7 @@ def _markdown(tmp: Path) -> str:
 
 def test_flagged_ablate_runs_are_not_rows(tmp_path, capsys):
     """A run folder without a manifest is listed under the problems, never as a table row."""
-    from mocap.eval.ablation import collect
+    from mocap.run_folder.sweep import collect
 
     got = collect(sweep(tmp_path / "sweep", "incomplete"))
     assert [r["_dir"] for r in got.runs] == [str(tmp_path / "sweep" / "apf_walk_small_s0_aaaa")]

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from mocap.eval.resume import clear_outputs, config_changes, restore_previous, run_state, set_aside
 from mocap.run_folder.manifest import manifest_problem, write_manifest
+from mocap.run_folder.resume import clear_outputs, config_changes, restore_previous, run_state, set_aside
 
 REPO = Path(__file__).resolve().parents[2]
 FAST = ["tracker=apf", "data=walk_small", "frames=2", "tracker.particles=4", "tracker.layers=2",
@@ -112,13 +112,6 @@ def test_resume_reruns_changed_and_interrupted_runs_only(tmp_path):
     assert (tmp_path / "recording.rrd").is_file() and not (tmp_path / "recording.failed.rrd").exists()
 
 
-def test_the_lazy_names_are_the_manifest_modules():
-    from mocap.eval import resume
-    from mocap.run_folder import manifest
-
-    assert (resume.MANIFEST, resume.PREVIOUS) == (manifest.MANIFEST, manifest.PREVIOUS)
-
-
 @pytest.fixture(scope="module")
 def old_run(tmp_path_factory) -> Path:
     """A complete run (tracker.layers=2, 2 frames, no recording) to re-run and interrupt."""
@@ -131,8 +124,8 @@ def old_run(tmp_path_factory) -> Path:
 @pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL], ids=lambda s: s.name)
 def test_an_interrupted_rerun_is_never_taken_for_the_new_run(old_run, sig, tmp_path):
-    from mocap.eval.ablation import collect
-    from mocap.export import export_run
+    from mocap.run_folder.export import export_run
+    from mocap.run_folder.sweep import collect
 
     run = tmp_path / "run"
     shutil.copytree(old_run, run)
@@ -190,7 +183,7 @@ def ran(r: subprocess.CompletedProcess) -> list[str]:
 
 @pytest.mark.slow
 def test_resumed_sweeps_rerun_the_right_jobs_and_count_seeds(tmp_path):
-    from mocap.eval.ablation import collect, table_rows
+    from mocap.run_folder.sweep import collect, table_rows
 
     r = sweep(tmp_path, "seed=0,1")
     assert r.returncode == 0, r.stderr[-3000:]

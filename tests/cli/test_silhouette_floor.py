@@ -1,4 +1,4 @@
-"""studies/silhouette_floor.py: from the oracle, E_S lowered by shape then by every pose."""
+"""experiments/silhouette_floor.py: from the oracle, E_S lowered by shape then by every pose."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ WALK = REPO / "data" / "mismatch" / "walk"
 
 @pytest.mark.skipif(not WALK.is_dir(), reason="the model-mismatch data is not in this checkout")
 def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouette_energy():
-    from studies import silhouette_floor
+    from experiments import silhouette_floor
 
     out = silhouette_floor.floor("mismatch_walk", rounds=1, keyframes=2, frames=3, seed=0)
     oracle, shape, poses = out["stages"]
@@ -30,7 +30,7 @@ def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouett
 
 
 def test_data_our_model_rendered_is_refused():
-    from studies import silhouette_floor
+    from experiments import silhouette_floor
 
     with pytest.raises(ValueError, match="rendered by our own body model"):
         silhouette_floor.floor("walk_small", rounds=1, keyframes=2, frames=2, seed=0)

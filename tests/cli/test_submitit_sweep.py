@@ -1,7 +1,7 @@
 """A sweep through a real cluster launcher (issue 28): Hydra's submitit launcher in local mode
 (``hydra/launcher=submitit_local``) pickles every job, starts it in its own process through
 submitit and gathers its result from submitit's folder, as the SLURM launcher
-(mocap_cli/conf/hydra/launcher/slurm.yaml) does on a cluster; ``mocap ablate`` reads the jobs'
+(conf/hydra/launcher/slurm.yaml) does on a cluster; ``mocap ablate`` reads the jobs'
 run directories."""
 
 from __future__ import annotations

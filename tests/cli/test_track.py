@@ -10,7 +10,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 # several people (marker_people) write other metrics: tests/cli/test_track_people.py
-TRACKERS = sorted(p.stem for p in (REPO / "mocap_cli" / "conf" / "tracker").glob("*.yaml")
+TRACKERS = sorted(p.stem for p in (REPO / "conf" / "tracker").glob("*.yaml")
                   if p.stem != "marker_people")
 REQUIRED = {"tracker", "seed", "frames", "mpjpe_mm", "mpjpe_std_mm", "per_joint_mm",
             "sec_per_frame", "energy_evals_per_frame", "per_frame_mm"}
@@ -67,7 +67,7 @@ def test_unknown_tracker_fails_at_configuration_time(tmp_path):
     assert not (tmp_path / "metrics.json").exists()
 
 
-SWEEPS = sorted(p.stem for p in (REPO / "mocap_cli" / "conf" / "sweep").glob("*.yaml"))
+SWEEPS = sorted(p.stem for p in (REPO / "conf" / "sweep").glob("*.yaml"))
 
 
 @pytest.mark.slow

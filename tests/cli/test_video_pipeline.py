@@ -15,8 +15,8 @@ import cv2
 import numpy as np
 import pytest
 
-from mocap.data.segmentation import iou, segment_sequence
-from mocap.data.video_sequence import load_video_sequence
+from mocap.video.segmentation import iou, segment_sequence
+from mocap.video.sequence import load_video_sequence
 
 REPO = Path(__file__).resolve().parents[2]
 CANDIDATES = [REPO.parent / "shared" / "data" / "pose2sim-demo",

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from mocap.body.catalogue import make_landmark_set
+from mocap.body.skeletons import LAYOUTS
 from mocap.cameras import project, write_pose2sim_calibration
-from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import GroundTruth
 from mocap.data.sequence_io import write_ground_truth
 

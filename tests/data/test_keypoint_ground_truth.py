@@ -165,8 +165,8 @@ def test_old_detections_without_person_still_load(two_people, tmp_path):
 def test_the_video_recording_takes_its_tracked_frames_of_the_ground_truth(tmp_path):
     """data=pose2sim_demo_video with a gt.npz (the demo's keypoints, 100 frames; a ground truth
     whose joint values are their frame numbers): frames start:stop:step are the ones kept."""
-    from mocap.data.video_sequence import load_video_sequence
-    from mocap.eval.by_name import SKELETONS
+    from mocap.body.skeletons import SKELETONS
+    from mocap.video.sequence import load_video_sequence
     from tests.conftest import SHARED
 
     demo = SHARED / "data" / "pose2sim-demo"

@@ -7,12 +7,13 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
+from mocap.body.skeletons import SKELETONS
 from mocap.data.corruption import SilhouetteNoise
-from mocap.eval.by_name import SKELETONS, NameScorer
+from mocap.eval.by_name import NameScorer
 from mocap_build.mismatch import procedural as mm
 
 REPO = Path(__file__).resolve().parents[2]
-CONF = REPO / "mocap_cli" / "conf"
+CONF = REPO / "conf"
 CONFIGS = {"mismatch_walk": "walk", "mismatch_box": "box", "mismatch_gesture": "gesture_turn"}
 
 

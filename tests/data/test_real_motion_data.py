@@ -11,13 +11,14 @@ from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
 from mocap.body.catalogue import make_landmark_set
+from mocap.body.skeletons import SKELETONS
 from mocap.cameras import project
-from mocap.eval.by_name import SKELETONS, NameScorer
+from mocap.eval.by_name import NameScorer
 from mocap_build.mismatch import real_motion as rm
 from mocap_cli import data_dir
 
 REPO = Path(__file__).resolve().parents[2]
-CONF = REPO / "mocap_cli" / "conf"
+CONF = REPO / "conf"
 DATA = REPO / "data" / "real_motion"
 CLIPS = REPO.parent / "shared" / "data" / "real-motion"
 SPLIT = yaml.safe_load((REPO / "mocap" / "clips" / "split.yaml").read_text())

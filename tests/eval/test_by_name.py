@@ -6,10 +6,11 @@ import cv2
 import numpy as np
 import pytest
 
+from mocap.body.skeletons import SKELETONS, JointNameError
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
 from mocap.data.sequence_io import load_sequence, write_sequence
-from mocap.eval.by_name import SKELETONS, JointNameError, NameScorer, score_by_name
+from mocap.eval.by_name import NameScorer, score_by_name
 from mocap.eval.metrics import EVAL_JOINTS, joint_errors, mpjpe_summary
 from mocap.eval.run_metrics import run_metrics
 from mocap.trackers.base import Estimate

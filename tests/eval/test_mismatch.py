@@ -97,7 +97,8 @@ def test_oracle_uses_the_skeleton_mapping_and_validity(body):
     pelvis, thorax and head are landmarks of ours (mid-hip, neck base, head centre), fitted
     like the joints."""
     from mocap.body.catalogue import landmarks_with
-    from mocap.eval.by_name import SKELETONS, estimate_points
+    from mocap.body.skeletons import SKELETONS
+    from mocap.eval.by_name import estimate_points
 
     chi, alpha, J = own_joints(body, "walk", 8)
     table = SKELETONS["humaneva15"]

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from mocap.export import export_run, run_body
 from mocap.export.axes import BVH_FROM_WORLD, GLTF_FROM_WORLD, OPENSIM_FROM_WORLD
 from mocap.export.motion import load_motion
+from mocap.run_folder.export import export_run, motion_body
 
 
 def read_bvh_joints(path) -> tuple[list[str], np.ndarray, float]:
@@ -153,7 +153,7 @@ def test_glb_skins_to_the_run_mesh(short_run, motion, tmp_path):
     M = np.stack([world[j] @ ibm[k] for k, j in enumerate(skin.joints)])
     hom = np.c_[rest, np.ones(len(rest))]
     skinned = np.einsum("vk,vkab,vb->va", W, M[J], hom)[:, :3]
-    body = run_body(short_run, motion)
+    body = motion_body(short_run, motion)
     want = body.shaped(motion.alpha[f]).pose(motion.chi[f]).vertices[0].astype(np.float64) @ GLTF_FROM_WORLD.T
     assert 1e3 * np.abs(skinned - want).max() < 1.0
     scene = trimesh.load(str(out))                          # and trimesh opens it

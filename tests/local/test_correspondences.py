@@ -121,7 +121,8 @@ def test_sift_correspondences_map_to_model_points_near_the_true_ones(body, textu
 
 
 def test_shape_initialisation_is_closer_to_the_truth_than_the_mean_shape(body):
-    from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes
+    from mocap.trackers.initialization import initialize_from_silhouettes
+    from mocap.trackers.tracker_settings import InitSettings
 
     rig = ring_rig(8, 3.5, 1.5, 320, 320, fov_deg=45, look_at=(0, 0, 0.9))
     seq = make_synthetic(body, rig, motion="gestures", frames=1, fps=25, seed=5, shape_scale=2.0)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from mocap.body.catalogue import make_landmark_set
+from mocap.body.jacobian import dof_frames
 from mocap.cameras import ring_rig
 from mocap.energy.markers import MarkerObservation, pinhole_project
-from mocap.local.jacobian import dof_frames
 from mocap.local.keypoints import keypoint_lines, tukey_weights
 from mocap.local.optimize import optimize_pose
 from mocap.local.solver import PointLines, apply_delta, linear_system, point_line_residuals

@@ -3,8 +3,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from mocap.body.jacobian import dof_frames, point_jacobians
 from mocap.cameras import plucker_from_rays, ring_rig
-from mocap.local.jacobian import dof_frames, point_jacobians
 from mocap.local.optimize import optimize_pose
 from mocap.local.solver import PointLines, apply_delta, gauss_newton_step
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from mocap.body.twists import se3_exp
-from mocap.trackers.markers.offsets import OffsetLearning, local_residuals, robust_offsets
+from mocap.trackers.markers.offsets import local_residuals, robust_offsets
+from mocap.trackers.tracker_settings import OffsetLearning
 
 DEV = Path(__file__).resolve().parents[2] / "data" / "real_motion" / "dev"
 
@@ -62,10 +63,10 @@ def _offset_run(body, offsets_mm, frames_learned, profile=None):
     walk whose detections mark the 15 HumanEva keypoints with constant offsets ``offsets_mm``
     (mocap.data.detector_semantics, no other corruption but 1.5 px noise)."""
     from mocap.body.catalogue import make_landmark_set
+    from mocap.body.skeletons import SKELETONS
     from mocap.cameras import rig_from_config
     from mocap.data.detector_semantics import DetectorSemantics, simulate
     from mocap.data.generate import make_synthetic
-    from mocap.eval.by_name import SKELETONS
     from mocap.trackers.presets import make_tracker
     from mocap.trackers.run import track_sequence
 

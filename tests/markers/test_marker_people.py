@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from mocap.body.skeletons import LAYOUTS
 from mocap.cameras import rig_from_config
 from mocap.data.crowd import crossing_scene, crowd_detections
-from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
 from mocap.trackers.markers.people import PeopleTracker
 from mocap.trackers.presets import make_tracker

@@ -6,13 +6,14 @@ import pytest
 from scipy.stats import truncnorm
 
 from mocap.body.catalogue import dof_moves, make_landmark_set
-from mocap.trackers.apf import APFSettings, find_beta
-from mocap.trackers.markers.anneal import find_betas, part_groups, run_annealing
+from mocap.trackers.apf import find_beta, find_betas
+from mocap.trackers.markers.crossover import part_groups, run_annealing
 from mocap.trackers.markers.propagation import (
     gibbs_truncated_normal,
     propagate_truncated,
     truncated_normal,
 )
+from mocap.trackers.tracker_settings import APFSettings
 
 
 def test_truncated_normal_matches_scipy_truncnorm_moments():

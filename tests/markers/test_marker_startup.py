@@ -6,11 +6,11 @@ import pytest
 
 from mocap.body.bone_lengths import shrink_to_bounds, skeleton_length_model
 from mocap.body.catalogue import make_landmark_set, probe_poses
+from mocap.body.skeletons import LAYOUTS
 from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import fundamental_matrices, project, rig_from_config
 from mocap.data.crowd import crowd_detections
 from mocap.data.motion import generate_motion
-from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
 from mocap.trackers.markers.associate import associate_people, skeletons_of
 from mocap.trackers.markers.startup import pinhole_rig

@@ -96,10 +96,10 @@ def test_numpy_fallbacks_track_as_the_compiled_annealing_does(body, rig, clean, 
     fallbacks (numba missing) give the same estimates over several frames, to rounding: the
     same algorithm, not merely a similar one."""
     from mocap.body import root_motion
-    from mocap.trackers import anneal
+    from mocap.trackers import apf
     from mocap.trackers.markers import refine
 
-    if not anneal.HAVE_NUMBA:
+    if not apf.HAVE_NUMBA:
         pytest.skip("numba is not installed")
 
     def run():
@@ -108,7 +108,7 @@ def test_numpy_fallbacks_track_as_the_compiled_annealing_does(body, rig, clean, 
         return np.array([trk.step(frame_of(clean, t)).chi for t in range(1, 7)])
 
     compiled = run()
-    for module in (anneal, root_motion, refine):
+    for module in (apf, root_motion, refine):
         monkeypatch.setattr(module, "HAVE_NUMBA", False)
     fallback = run()
     # rounding differences (1e-16) grow through the refinement's finite-difference Jacobian

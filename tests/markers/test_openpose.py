@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mocap.body.skeletons import LAYOUTS
 from mocap.cameras import project, ring_rig, write_pose2sim_calibration
-from mocap.data.openpose import LAYOUTS, OpenPoseFormatError, load_openpose_sequence
+from mocap.data.openpose import OpenPoseFormatError, load_openpose_sequence
 from mocap.eval.keypoint_metrics import detection_residuals, triangulate_detections
 
 # the shared data folder: $MOCAP_SHARED_DATA, else ../shared/data next to the repository

@@ -10,11 +10,11 @@ import rerun as rr
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
 from mocap.energy.silhouette import downscale_masks
-from mocap.recording.factory import LEVELS, RecordingSettings, recording_settings
 from mocap.recording.reader import latest_at, read_recording
 from mocap.recording.rerun_sink import RerunSink
+from mocap.recording.settings import LEVELS, RecordingSettings, recording_settings
 from mocap.recording.sink import RunInfo
-from mocap.trackers.anneal import AnnealTrace, LayerTrace
+from mocap.trackers.apf import AnnealTrace, LayerTrace
 from mocap.trackers.base import Estimate
 from mocap.trackers.diagnostics import LandmarkReport, StepDiagnostics
 from mocap.trackers.run import frame_of

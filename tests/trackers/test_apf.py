@@ -4,7 +4,8 @@ import pytest
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
-from mocap.energy.total import EnergyWeights, FrameEnergy
+from mocap.energy.total import FrameEnergy
+from mocap.energy.weights import EnergyWeights
 from mocap.eval.metrics import joint_errors
 from mocap.trackers.apf import (
     APFSettings,
@@ -15,8 +16,8 @@ from mocap.trackers.apf import (
     survival_rate,
     systematic_resample,
 )
-from mocap.trackers.apf_tracker import APFTracker
 from mocap.trackers.run import frame_of
+from mocap.trackers.silhouette_tracker import APFTracker
 
 
 def test_beta_search_hits_the_target_survival_rate():
@@ -33,24 +34,24 @@ def test_compiled_beta_bisection_equals_the_numpy_reference():
     """The compiled bisection (numba) visits the numpy reference's midpoints: same betas to
     the bisection's precision (two steps of 24 / 2^30 decades; in practice bit for bit),
     and each reaches the target survival rate."""
-    from mocap.trackers import anneal
+    from mocap.trackers import apf
 
-    if not anneal.HAVE_NUMBA:
+    if not apf.HAVE_NUMBA:
         pytest.skip("numba is not installed")
     rng = np.random.default_rng(4)
-    step = 24.0 / 2**anneal.BETA_ITERATIONS
+    step = 24.0 / 2**apf.BETA_ITERATIONS
     for trial in range(200):
         G, P = rng.integers(1, 9), rng.integers(2, 250)
         E = rng.gamma(rng.uniform(0.3, 3.0), 1.0, (G, P)) * 10.0 ** rng.uniform(-5, 5)
         if trial % 5 == 0:
             E[0] = 2.5                                   # a flat set: beta 0
         target = rng.uniform(0.05, 0.95)
-        ref = anneal._find_betas_numpy(E, target)
-        fast = anneal.find_betas(E, target)
+        ref = apf._find_betas_numpy(E, target)
+        fast = apf.find_betas(E, target)
         assert np.array_equal(ref == 0.0, fast == 0.0)
         ok = ref > 0
         assert np.all(np.abs(np.log10(fast[ok] / ref[ok])) <= 2 * step)
-        np.testing.assert_array_equal(anneal.find_betas(E, target, compiled=False), ref)
+        np.testing.assert_array_equal(apf.find_betas(E, target, compiled=False), ref)
         for g in np.flatnonzero(ok & (fast < 1e11)):
             rate = survival_rate(np.exp(-fast[g] * (E[g] - E[g].min())))
             assert rate == pytest.approx(target, abs=1e-6)
@@ -58,7 +59,7 @@ def test_compiled_beta_bisection_equals_the_numpy_reference():
 
 def test_particle_spread_is_numpys_std_bit_for_bit_and_the_root_spread_on_se3():
     from mocap.body.root_motion import root_spread
-    from mocap.trackers.anneal import particle_spread
+    from mocap.trackers.apf import particle_spread
 
     rng = np.random.default_rng(5)
     for P, D in ((100, 22), (2, 2), (257, 31), (50, 1)):

@@ -7,11 +7,11 @@ import pytest
 
 from mocap.cameras import ring_rig
 from mocap.data.generate import make_synthetic
-from mocap.recording.factory import RecordingSettings
 from mocap.recording.reader import read_recording
 from mocap.recording.rerun_sink import RerunSink
+from mocap.recording.settings import RecordingSettings
 from mocap.recording.sink import RunInfo
-from mocap.trackers.anneal import AnnealTrace, LayerTrace
+from mocap.trackers.apf import AnnealTrace, LayerTrace
 from mocap.trackers.base import Estimate
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.run import frame_of

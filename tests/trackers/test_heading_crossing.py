@@ -8,7 +8,8 @@ import pytest
 
 from mocap.body.root_motion import interpolate_root, predict_root, root_mean, root_spread
 from mocap.body.twists import se3_exp, se3_log
-from mocap.trackers.anneal import APFSettings, anneal
+from mocap.trackers.apf import anneal
+from mocap.trackers.tracker_settings import APFSettings
 
 ROOT = np.array([0.0, 0.0, 0.9])     # rest root point
 

@@ -153,7 +153,7 @@ def test_detector_charges_unexplained_pixels_to_the_nearest_chain_only(body, seq
 
 
 def test_restart_first_layer_draws_free_joint_angles_uniformly_once():
-    from mocap.trackers.anneal import perturb
+    from mocap.trackers.apf import perturb
     from mocap.trackers.hybrid_tracker import RestartFirstLayer
 
     D, P = 9, 400

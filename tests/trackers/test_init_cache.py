@@ -102,7 +102,7 @@ def test_a_start_without_a_cache_key_is_never_cached(tmp_path):
 
 
 def test_the_key_changes_with_the_initialiser_version_and_its_settings(monkeypatch):
-    from mocap.trackers.initialization import InitSettings
+    from mocap.trackers.tracker_settings import InitSettings
 
     body, rig = load_body("paper22"), rig_from_config("ring4_small")
     frame = Frame(index=0, masks=np.ones((len(rig.names), 4, 4), bool), images=None, detections=None)

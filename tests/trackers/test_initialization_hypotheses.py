@@ -9,7 +9,8 @@ import pytest
 import mocap
 from mocap.body.twists import se3_exp
 from mocap.eval.by_name import NameScorer
-from mocap.trackers.initialization import InitSettings, initialize_from_silhouettes, mirror_map, swap_limbs
+from mocap.trackers.initialization import initialize_from_silhouettes, mirror_map, swap_limbs
+from mocap.trackers.tracker_settings import InitSettings
 
 
 def test_mirror_map_swaps_the_limbs_into_the_mirror_image():

@@ -10,8 +10,9 @@ import mocap
 from mocap.cameras import project, ring_rig
 from mocap.energy.silhouette import silhouette_target
 from mocap.render import get_rasterizer
-from mocap.trackers.apf import APFSettings, run_apf
+from mocap.trackers.apf import run_apf
 from mocap.trackers.shape_search import shape_energy, shifted
+from mocap.trackers.tracker_settings import APFSettings
 
 C = 8
 

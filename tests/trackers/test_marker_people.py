@@ -5,9 +5,9 @@ people crossing keep their identities; synthetic keypoints grouped per person, 5
 import numpy as np
 import pytest
 
+from mocap.body.skeletons import LAYOUTS
 from mocap.cameras import rig_from_config
 from mocap.data.crowd import CROWD_RIG, crossing_scene, crowd_detections, straight_walk
-from mocap.data.openpose import LAYOUTS
 from mocap.data.sequence import Sequence
 from mocap.eval.people_metrics import people_scores
 from mocap.trackers.presets import make_tracker, preset_settings

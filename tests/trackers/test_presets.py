@@ -14,7 +14,7 @@ from mocap.trackers.presets import PRESETS, make_tracker
 from mocap.trackers.run import track_sequence
 from mocap_cli.conf_schema import register_configs
 
-CONF = Path(__file__).resolve().parents[2] / "mocap_cli" / "conf"
+CONF = Path(__file__).resolve().parents[2] / "conf"
 register_configs()
 # small budgets, applied to both sides
 FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "layers": 2},

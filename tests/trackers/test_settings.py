@@ -25,7 +25,7 @@ from mocap.trackers.presets import PRESETS, SETTINGS_CLASSES, make_tracker, pres
 from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, LocalSettings, PriorSettings
 from mocap_cli.conf_schema import register_configs
 
-CONF = Path(__file__).resolve().parents[2] / "mocap_cli" / "conf"
+CONF = Path(__file__).resolve().parents[2] / "conf"
 TRACKERS = CONF / "tracker"
 NOT_SETTINGS = ("defaults", "_target_", "name")        # what a tracker config selects, not settings
 register_configs()

@@ -14,7 +14,8 @@ from mocap.eval.run_metrics import accuracy_metrics
 from mocap.render import get_rasterizer
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import track_sequence
-from mocap.trackers.shape_search import ShapeRefinement, refine_shape
+from mocap.trackers.shape_search import refine_shape
+from mocap.trackers.tracker_settings import ShapeRefinement
 
 SEARCH = ShapeRefinement(every=1, particles=60, layers=8, std=0.6, shift=0.02, min_gain=0.01,
                          resolution=200)                      # the masks' own size: scale 1

@@ -11,11 +11,12 @@ import cv2
 import numpy as np
 import pytest
 
+from mocap.body.skeletons import LAYOUTS
 from mocap.cameras import project, rig_from_config, save_calibration
-from mocap.data.openpose import LAYOUTS, load_openpose_sequence
-from mocap.data.segmentation import iou
+from mocap.data.openpose import load_openpose_sequence
 from mocap.video.detect import plan_detection, read_masks
 from mocap.video.detector import detector_available
+from mocap.video.segmentation import iou
 from mocap_cli.main import main as cli
 
 needs_detector = pytest.mark.skipif(not detector_available(),
@@ -119,9 +120,9 @@ def test_detector_mask_with_grabcut_and_carving_fits_the_true_silhouettes(synthe
     scene it does not help: the detector's own mask is better (about 0.92 against 0.89: hole
     filling closes loops between limbs and GrabCut confuses the body's noisy texture with the
     background's); on the real demo it helps (docs/results/detector.md)."""
-    from mocap.data.segmentation import keypoint_dict
-    from mocap.data.video_sequence import load_video_sequence
     from mocap.video.person_masks import combine_masks
+    from mocap.video.segmentation import keypoint_dict
+    from mocap.video.sequence import load_video_sequence
 
     truth = synthetic_recording["seq"]
     seq = load_video_sequence(detected, keypoints="pose", layout="auto", stop=PERSON_FRAMES,
@@ -227,7 +228,7 @@ def test_left_right_check_mirrors_the_one_swapped_view_back_and_leaves_the_other
 @pytest.fixture
 def small_recording(tmp_path):
     """A calibration of ring4_small (320x240) and noise videos of that size."""
-    from tests.data.test_video import write_clip
+    from tests.video.test_video import write_clip
 
     rig = rig_from_config("ring4_small")
     root = tmp_path / "rec"
@@ -257,7 +258,7 @@ def test_video_that_cannot_be_opened_is_refused(small_recording, capsys, tmp_pat
 
 
 def test_video_whose_size_differs_from_the_calibration_is_refused(small_recording, tmp_path):
-    from tests.data.test_video import write_clip
+    from tests.video.test_video import write_clip
 
     root, names = small_recording
     write_clip(root / "videos" / f"{names[2]}.avi", frames=6, size=(160, 120))

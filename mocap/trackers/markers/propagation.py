@@ -15,7 +15,7 @@ import numpy as np
 from scipy.special import ndtr, ndtri
 
 from mocap.body.root_motion import perturb_root
-from mocap.trackers.anneal import reflect_into
+from mocap.trackers.apf import reflect_into
 
 
 def truncated_normal(mean: np.ndarray, std: np.ndarray, lo: np.ndarray, hi: np.ndarray,

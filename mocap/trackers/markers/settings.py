@@ -11,9 +11,9 @@ import numpy as np
 
 from mocap.energy.markers import MarkerLikelihood
 from mocap.settings import check, fields_of
-from mocap.trackers.anneal import APFSettings
-from mocap.trackers.markers.offsets import PROFILES, OffsetLearning
+from mocap.trackers.markers.offsets import PROFILES
 from mocap.trackers.markers.refine import Refinement
+from mocap.trackers.tracker_settings import APFSettings, OffsetLearning
 
 
 @dataclass(frozen=True)
@@ -37,9 +37,8 @@ class MarkerInit:
     shrink: float = 0.4
     length_sigma: float = 0.02
     fit_shape: bool = True
-    # 8 and 6 (were 4 and 3): chosen on the real-motion dev split and data/mismatch with realistic
-    # detector semantics (docs/results/detector_semantics.md): a tall subject's legs, or hips
-    # marked 5 cm high, made the fit drop or shrink the leg bones and lose the legs
+    # wide enough that a tall subject's legs, or hips marked 5 cm high, keep their leg bones
+    # (docs/results/detector_semantics.md)
     outlier_sigma: float = 8.0
     bound_sigma: float = 6.0
     association_px: float | None = None

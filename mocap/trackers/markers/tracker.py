@@ -32,13 +32,12 @@ from mocap.energy.markers import (
     reprojection_errors,
     views_near,
 )
-from mocap.trackers.apf import APFSettings
-from mocap.trackers.apf_tracker import diffusion_std
+from mocap.trackers.annealed_step import AnnealedStep
 from mocap.trackers.base import Frame
 from mocap.trackers.contract import Needs, OnePerson, SearchBudget
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
-from mocap.trackers.markers.anneal import PartGroup, part_groups, run_annealing
 from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.crossover import PartGroup, part_groups, run_annealing
 from mocap.trackers.markers.offsets import (
     local_residuals,
     profile_rest_offsets,
@@ -54,7 +53,8 @@ from mocap.trackers.markers.startup import (
     shape_from_landmarks,
     triangulate_candidates,
 )
-from mocap.trackers.step import AnnealedStep
+from mocap.trackers.silhouette_tracker import diffusion_std
+from mocap.trackers.tracker_settings import APFSettings
 
 
 class MarkerAPFTracker(AnnealedStep, OnePerson):
@@ -106,7 +106,7 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
     def check_sequence(self, seq) -> None:
         """Raise a ValueError, before any work starts, when ``seq`` cannot be tracked: no
         detections at all, none in the first frame, or no detection label the landmark set
-        knows (experiments/track.py calls this right after building the tracker)."""
+        knows (``mocap track`` calls this right after building the tracker)."""
         det = seq.detections
         if det is None or not len(det):
             raise ValueError(f"{self.name} needs 2D detections, but sequence {seq.name!r} has none: use "

@@ -1,0 +1,4 @@
+"""Code the studies share that the runtime package does not use: the Gaussian mixture baseline
+of the pose-prior study (:mod:`.gmm`), the prior trained on real motion capture
+(:mod:`.real_prior`), the colour-marker detector (:mod:`.marker_detector`) and the robust
+per-frame triangulation baseline (:mod:`.triangulation`)."""
