@@ -76,10 +76,19 @@ def rotation_angle_deg(R: np.ndarray) -> np.ndarray:
 
 
 def compare_rigs(rig: Rig, reference: Rig, similarity: bool = True) -> RigComparison:
-    """Align ``rig``'s centres to ``reference``'s (cameras matched by name; a similarity,
-    or a rigid motion when ``similarity`` is False) and measure what differs."""
-    rig = Rig(tuple(rig[n] for n in reference.names)) if set(rig.names) == set(reference.names) else rig
-    s, R, t = umeyama(rig.centers, reference.centers, scale=similarity)
+    """Align ``rig`` to ``reference`` (cameras matched by name ignoring case and separators,
+    else by order; a similarity, or a rigid motion when ``similarity`` is False) and measure
+    what differs. The alignment maps the camera centres and, per camera, a point on its
+    optical axis at the rig's size from its centre (so that cameras in a row still fix it)."""
+    def key(s: str) -> str:
+        return "".join(ch for ch in s.lower() if ch.isalnum())
+    by_key = {key(n): cam for n, cam in zip(rig.names, rig, strict=True)}
+    if all(key(n) in by_key for n in reference.names):
+        rig = Rig(tuple(by_key[key(n)] for n in reference.names))
+    def anchors(r: Rig) -> np.ndarray:
+        size = np.linalg.norm(r.centers - r.centers.mean(0), axis=1).mean()
+        return np.concatenate([r.centers, r.centers + size * r.R[:, 2, :]])
+    s, R, t = umeyama(anchors(rig), anchors(reference), scale=similarity)
     aligned = transform_rig(rig, s, R, t)
     centre = np.linalg.norm(aligned.centers - reference.centers, axis=1)
     rot = rotation_angle_deg(aligned.R @ np.swapaxes(reference.R, -1, -2))
