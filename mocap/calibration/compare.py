@@ -75,7 +75,7 @@ def rotation_angle_deg(R: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(c, -1, 1)))
 
 
-def compare_rigs(rig: Rig, reference: Rig, similarity: bool = True) -> RigComparison:
+def compare_rigs(rig: Rig, reference: Rig, similarity: bool = True, poses: bool = True) -> RigComparison:
     """Align ``rig`` to ``reference`` (cameras matched by name ignoring case and separators,
     else by order; a similarity, or a rigid motion when ``similarity`` is False) and measure
     what differs. The alignment maps the camera centres and, per camera, a point on its
@@ -88,10 +88,13 @@ def compare_rigs(rig: Rig, reference: Rig, similarity: bool = True) -> RigCompar
     def anchors(r: Rig) -> np.ndarray:
         size = np.linalg.norm(r.centers - r.centers.mean(0), axis=1).mean()
         return np.concatenate([r.centers, r.centers + size * r.R[:, 2, :]])
+    pp = np.linalg.norm(rig.K[:, :2, 2] - reference.K[:, :2, 2], axis=1)
+    if not poses:                                   # intrinsics only
+        nan = np.full(len(rig), np.nan)
+        return RigComparison(reference.names, nan, nan, np.abs(f), pp, float("nan"))
     s, R, t = umeyama(anchors(rig), anchors(reference), scale=similarity)
     aligned = transform_rig(rig, s, R, t)
     centre = np.linalg.norm(aligned.centers - reference.centers, axis=1)
     rot = rotation_angle_deg(aligned.R @ np.swapaxes(reference.R, -1, -2))
     f = (rig.K[:, 0, 0] + rig.K[:, 1, 1]) / (reference.K[:, 0, 0] + reference.K[:, 1, 1]) - 1
-    pp = np.linalg.norm(rig.K[:, :2, 2] - reference.K[:, :2, 2], axis=1)
     return RigComparison(reference.names, centre, rot, np.abs(f), pp, s)
