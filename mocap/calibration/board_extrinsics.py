@@ -25,6 +25,8 @@ from mocap.calibration.errors import CalibrationInputError
 from mocap.cameras import rodrigues_from_rotation, rotation_from_rodrigues
 
 Detection = tuple[np.ndarray, np.ndarray]      # corners (N, 2) px, ids (N,)
+#: the joint refinement's settings: corners are sub-pixel, a Huber loss at 1 px
+BOARD_BUNDLE = BundleSettings(loss="huber", f_scale=1.0)
 
 
 @dataclass(frozen=True)
@@ -67,14 +69,14 @@ def _consensus(candidates: list[np.ndarray], size: float) -> np.ndarray:
     T = np.stack(candidates)
     ang = rotation_angle_deg(T[:, None, :3, :3] @ np.swapaxes(T[None, :, :3, :3], -1, -2))
     dist = np.linalg.norm(T[:, None, :3, 3] - T[None, :, :3, 3], axis=-1)
-    votes = ((ang < 5) & (dist < 0.05 * max(size, 1e-9) + 0.05 * np.linalg.norm(T[:, None, :3, 3], axis=-1))).sum(1)
+    near = 0.05 * max(size, 1e-9) + 0.05 * np.linalg.norm(T[:, None, :3, 3], axis=-1)
+    votes = ((ang < 5) & (dist < near)).sum(1)
     return T[int(np.argmax(votes))]
 
 
 def calibrate_board_extrinsics(names: Sequence[str], K: np.ndarray, dist: np.ndarray, board: Board,
                                detections: Sequence[dict[str, Detection]], reference: int = 0,
-                               settings: BundleSettings = BundleSettings(loss="huber", f_scale=1.0)
-                               ) -> BoardExtrinsicsResult:
+                               settings: BundleSettings = BOARD_BUNDLE) -> BoardExtrinsicsResult:
     """detections: per camera, frame name -> the board found there (frames with the same name
     are the same moment). Raises :class:`CalibrationInputError` for a camera that shares no
     frame with the others."""
@@ -99,8 +101,9 @@ def calibrate_board_extrinsics(names: Sequence[str], K: np.ndarray, dist: np.nda
         c = int(np.argmax(shared))
         if shared[c] <= 0:
             lost = [names[i] for i in range(C) if world[i] is None]
-            raise CalibrationInputError(lost[0], f"cameras {lost} share no board frame with camera "
-                                                 f"{names[reference]!r}'s group: the rig is in unconnected parts")
+            raise CalibrationInputError(
+                lost[0], f"cameras {lost} share no board frame with camera {names[reference]!r}'s group: "
+                         "the rig is in unconnected parts")
         cands = [T @ np.linalg.inv(board_world[f]) for f, rs in readings[c].items() if f in board_world
                  for T, _ in rs]
         W = _consensus(cands, size)
@@ -116,8 +119,8 @@ def calibrate_board_extrinsics(names: Sequence[str], K: np.ndarray, dist: np.nda
     frames = sorted(board_world)
     fidx = {f: i for i, f in enumerate(frames)}
     cams = np.stack([np.concatenate([rodrigues_from_rotation(W[:3, :3]), W[:3, 3]]) for W in world])
-    boards = np.stack([np.concatenate([rodrigues_from_rotation(board_world[f][:3, :3]), board_world[f][:3, 3]])
-                       for f in frames])
+    boards = np.stack([np.concatenate([rodrigues_from_rotation(board_world[f][:3, :3]),
+                                       board_world[f][:3, 3]]) for f in frames])
     obj = board.object_points()
     oc, ob, oo, oxy, keys = [], [], [], [], []
     for (c, f), ids in chosen.items():

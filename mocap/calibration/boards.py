@@ -122,7 +122,8 @@ def detect_board(image: np.ndarray, board: Board) -> tuple[np.ndarray, np.ndarra
         step = np.linalg.norm(np.diff(corners.reshape(board.rows, board.cols, 2), axis=1), axis=-1).min()
         win = int(np.clip(step / 4, 2, 11))
         crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
-        corners = cv2.cornerSubPix(gray, corners.astype(np.float32).reshape(-1, 1, 2), (win, win), (-1, -1), crit)
+        corners = cv2.cornerSubPix(gray, corners.astype(np.float32).reshape(-1, 1, 2), (win, win), (-1, -1),
+                                   crit)
     else:
         found, corners = cv2.findChessboardCornersSB(
             gray, size, flags=cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)

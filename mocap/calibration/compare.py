@@ -88,6 +88,7 @@ def compare_rigs(rig: Rig, reference: Rig, similarity: bool = True, poses: bool 
     def anchors(r: Rig) -> np.ndarray:
         size = np.linalg.norm(r.centers - r.centers.mean(0), axis=1).mean()
         return np.concatenate([r.centers, r.centers + size * r.R[:, 2, :]])
+    f = (rig.K[:, 0, 0] + rig.K[:, 1, 1]) / (reference.K[:, 0, 0] + reference.K[:, 1, 1]) - 1
     pp = np.linalg.norm(rig.K[:, :2, 2] - reference.K[:, :2, 2], axis=1)
     if not poses:                                   # intrinsics only
         nan = np.full(len(rig), np.nan)
@@ -96,5 +97,4 @@ def compare_rigs(rig: Rig, reference: Rig, similarity: bool = True, poses: bool 
     aligned = transform_rig(rig, s, R, t)
     centre = np.linalg.norm(aligned.centers - reference.centers, axis=1)
     rot = rotation_angle_deg(aligned.R @ np.swapaxes(reference.R, -1, -2))
-    f = (rig.K[:, 0, 0] + rig.K[:, 1, 1]) / (reference.K[:, 0, 0] + reference.K[:, 1, 1]) - 1
     return RigComparison(reference.names, centre, rot, np.abs(f), pp, s)

@@ -100,13 +100,13 @@ def check_options(o: CalibrateOptions) -> None:
 
 
 def _detect(source: CameraSource, board: Board, max_frames: int):
-    found, first, shape = {}, None, None
+    found, first = {}, None
     for key, label, img in frames(source, max_frames):
         d = detect_board(img, board)
         if d is not None:
             found[key] = (label, d)
             if first is None:
-                first, shape = (key, img), img.shape
+                first = (key, img)
     return found, first
 
 
@@ -125,7 +125,8 @@ def run_calibration(o: CalibrateOptions) -> dict:
     known = read_known_points(o.points) if o.extrinsics == "points" else None
     keypoints = None
     if o.extrinsics == "people":
-        keypoints = read_view_keypoints(o.keypoints, names, o.layout, o.people_settings.min_confidence, o.frames)
+        keypoints = read_view_keypoints(o.keypoints, names, o.layout, o.people_settings.min_confidence,
+                                        o.frames)
         check_overlap(names, keypoints.flat()[1] >= o.people_settings.min_confidence,
                       o.people_settings.min_shared)
     reference = load_calibration(o.compare) if o.compare else None
@@ -138,12 +139,13 @@ def run_calibration(o: CalibrateOptions) -> dict:
             log(f"{s.name}: looking for the board in {s.frames} {'frames' if s.video else 'images'}")
             found, first = _detect(s, o.board, o.max_video_frames)
             if not found:
-                raise CalibrationInputError(s.name, f"the board ({o.board.describe()}) was not found in any of "
-                                                    f"its {s.frames} images: check --board (inner corners, not "
-                                                    "squares) and that the whole board is in view")
+                raise CalibrationInputError(
+                    s.name, f"the board ({o.board.describe()}) was not found in any of its {s.frames} "
+                            "images: check --board (inner corners, not squares) and that the whole board is "
+                            "in view")
             detections.append((found, first))
         results = []
-        for s, (found, first) in zip(intr_sources, detections, strict=True):
+        for s, (found, _) in zip(intr_sources, detections, strict=True):
             views = {label: d for label, d in found.values()}
             results.append(calibrate_intrinsics(s.name, views, o.board, s.size, o.intrinsics_settings))
         K = np.stack([r.K for r in results])
@@ -173,8 +175,9 @@ def run_calibration(o: CalibrateOptions) -> dict:
             log(f"{s.name}: looking for the board in the synchronised {'video' if s.video else 'images'}")
             found, first = _detect(s, o.board, o.max_video_frames)
             if not found:
-                raise CalibrationInputError(s.name, "the board was not found in any of its synchronised views: "
-                                                    "every camera must see the board at least once with another")
+                raise CalibrationInputError(
+                    s.name, "the board was not found in any of its synchronised views: every camera must see "
+                            "the board at least once with another")
             dets.append({k: d for k, (_, d) in found.items()})
             firsts.append(first)
         res = calibrate_board_extrinsics(names, K, dist, o.board, dets, o.reference)
@@ -194,11 +197,12 @@ def run_calibration(o: CalibrateOptions) -> dict:
         for c, n in enumerate(names):
             X, uv, pnames = by[_key(n)]
             per_camera[n] = {p: float(np.linalg.norm(r)) for p, r in zip(pnames, residuals[c], strict=True)}
-            tiles.append(Tile(f"{n} known points: {rms(residuals[c]):.2f} px", sizes[c], uv, uv + residuals[c]))
+            tiles.append(Tile(f"{n} known points: {rms(residuals[c]):.2f} px", sizes[c], uv,
+                              uv + residuals[c]))
     elif o.extrinsics == "people":
         xy, conf = keypoints.flat()
-        log(f"people: {len(keypoints.frames)} frames x {len(keypoints.labels)} keypoints in {len(names)} views; "
-            "essential matrices, then bundle adjustment")
+        log(f"people: {len(keypoints.frames)} frames x {len(keypoints.labels)} keypoints in {len(names)} "
+            "views; essential matrices, then bundle adjustment")
         res = calibrate_from_keypoints(names, K, dist, xy, conf, o.people_settings)
         F, Kk = len(keypoints.frames), len(keypoints.labels)
         rig0 = rig_from_poses(names, K, dist, sizes, res.cams)
@@ -236,12 +240,13 @@ def run_calibration(o: CalibrateOptions) -> dict:
                                    for n in names}
     if reference is not None:
         cmp = compare_rigs(rig, reference, poses=o.extrinsics != "none")
+        def per_camera_values(values: np.ndarray) -> dict[str, float]:
+            return dict(zip(cmp.names, values.tolist(), strict=True))
         report["compare"] = {"reference": str(o.compare), "table": cmp.table(), "scale": cmp.scale,
-                             "centre_error_m": dict(zip(cmp.names, cmp.centre_error.tolist(), strict=True)),
-                             "rotation_error_deg": dict(zip(cmp.names, cmp.rotation_error.tolist(), strict=True)),
-                             "focal_error": dict(zip(cmp.names, cmp.focal_error.tolist(), strict=True)),
-                             "principal_point_error_px": dict(zip(cmp.names, cmp.principal_point_error.tolist(),
-                                                                  strict=True))}
+                             "centre_error_m": per_camera_values(cmp.centre_error),
+                             "rotation_error_deg": per_camera_values(cmp.rotation_error),
+                             "focal_error": per_camera_values(cmp.focal_error),
+                             "principal_point_error_px": per_camera_values(cmp.principal_point_error)}
     _write(Path(o.out), rig, report, tiles, o.overwrite)
     return report
 

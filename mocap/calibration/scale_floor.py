@@ -96,11 +96,11 @@ def measured_height(points: np.ndarray, labels: Sequence[str | None]) -> float:
     """Median over frames of the top keypoint's z (points in the floor frame)."""
     top = _indices(labels, TOP_KEYPOINTS)
     if not top:
-        raise CalibrationInputError("", f"the keypoint layout has none of {TOP_KEYPOINTS}: give --length instead")
+        raise CalibrationInputError("", f"the keypoint layout has none of {TOP_KEYPOINTS}: give --length")
     z = points[:, top[0], 2]
     z = z[np.isfinite(z)]
     if len(z) == 0:
-        raise CalibrationInputError("", f"keypoint {labels[top[0]]!r} never reconstructed: give --length instead")
+        raise CalibrationInputError("", f"keypoint {labels[top[0]]!r} never reconstructed: give --length")
     return float(np.median(z))
 
 

@@ -77,7 +77,8 @@ def find_sources(folder: str | Path) -> list[CameraSource]:
     subdirs = sorted(p for p in folder.iterdir() if p.is_dir())
     if subdirs:
         for d in subdirs:
-            groups[d.name] = sorted(p for p in d.iterdir() if p.suffix.lower() in IMAGE_EXTENSIONS + VIDEO_EXTENSIONS)
+            groups[d.name] = sorted(p for p in d.iterdir()
+                                    if p.suffix.lower() in IMAGE_EXTENSIONS + VIDEO_EXTENSIONS)
     else:
         for p in sorted(folder.iterdir()):
             ext = p.suffix.lower()
@@ -94,7 +95,7 @@ def find_sources(folder: str | Path) -> list[CameraSource]:
         if not paths:
             raise CalibrationInputError(name, f"{folder / name} holds no image or video")
         if videos and len(paths) > 1:
-            raise CalibrationInputError(name, f"give one video or images, not {len(paths)} files with a video")
+            raise CalibrationInputError(name, f"give one video or images, not {len(paths)} files and a video")
         out.append(_probe_video(name, videos[0]) if videos else _probe_images(name, paths))
     return out
 
@@ -109,8 +110,8 @@ def check_same_length(sources: list[CameraSource]) -> None:
     for s in videos:
         if s.frames != common:
             raise CalibrationInputError(s.name, f"video {s.video.name} has {s.frames} frames, the others "
-                                                f"{common}: the videos must be synchronised and of one length "
-                                                "(trim them to the same frames)")
+                                                f"{common}: the videos must be synchronised and of one "
+                                                "length (trim them to the same frames)")
 
 
 def frames(source: CameraSource, max_frames: int = 60) -> Iterator[tuple[str, str, np.ndarray]]:
@@ -121,7 +122,8 @@ def frames(source: CameraSource, max_frames: int = 60) -> Iterator[tuple[str, st
         for p in source.images:
             yield f"{_frame_number(p):06d}", p.name, cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
         return
-    wanted = set(np.unique(np.linspace(0, source.frames - 1, min(max_frames, source.frames)).round().astype(int)))
+    picks = np.linspace(0, source.frames - 1, min(max_frames, source.frames)).round().astype(int)
+    wanted = set(picks.tolist())
     cap = cv2.VideoCapture(str(source.video))
     try:
         i = 0

@@ -40,17 +40,20 @@ def main(argv: list[str] | None = None) -> int:
                         "(inner corners; default checkerboard:4x7:0.06)")
     p.add_argument("--extrinsics", default="none", choices=EXTRINSICS, help="how to place the cameras "
                                                                             "(default none: intrinsics only)")
-    p.add_argument("--board-views", default=None, help="(board) synchronised board images or videos per camera")
+    p.add_argument("--board-views", default=None,
+                   help="(board) synchronised board images or videos per camera")
     p.add_argument("--points", default=None, help="(points) known 3D points and their pixels: .json or .csv")
     p.add_argument("--keypoints", default=None, help="(people) OpenPose JSON folders per camera")
     p.add_argument("--layout", default="BODY_25B", help="(people) keypoint layout (default BODY_25B)")
-    p.add_argument("--height", type=float, default=None, help="(people) the person's height, metres: the scale")
+    p.add_argument("--height", type=float, default=None,
+                   help="(people) the person's height, metres: the scale")
     p.add_argument("--length", nargs=3, default=None, metavar=("A", "B", "METRES"),
                    help="(people) the distance between keypoints A and B, metres: the scale")
     p.add_argument("--frames", type=int, default=None, help="(people) use the first N frames")
     p.add_argument("--max-video-frames", type=int, default=60, help="board frames taken from a video, "
                                                                     "evenly spread (default 60)")
-    p.add_argument("--reference-camera", type=int, default=0, help="(board) the camera that is the world frame")
+    p.add_argument("--reference-camera", type=int, default=0,
+                   help="(board) index of the camera that is the world frame (default 0)")
     p.add_argument("--compare", default=None, help="a reference calibration to compare with (printed, "
                                                    "and in report.json)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")

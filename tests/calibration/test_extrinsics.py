@@ -16,7 +16,14 @@ from mocap.calibration.known_points import calibrate_known_points, read_known_po
 from mocap.calibration.people import calibrate_from_keypoints
 from mocap.calibration.scale_floor import floor_frame, measured_length
 from mocap.cameras import project
-from tests.calibration.scenes import BIG_BOARD, arc_rig, arc_views, walking_joints, walking_keypoints, walking_rig
+from tests.calibration.scenes import (
+    BIG_BOARD,
+    arc_rig,
+    arc_views,
+    walking_joints,
+    walking_keypoints,
+    walking_rig,
+)
 
 
 def _sizes(rig):

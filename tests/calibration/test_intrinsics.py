@@ -3,6 +3,9 @@ checkerboard images against its Qualisys calibration."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -12,7 +15,7 @@ from mocap.calibration.synthetic import board_poses_facing, render_board
 from tests.calibration.scenes import BOARD, K, close_camera, close_views
 from tests.conftest import SHARED
 
-DEMO = SHARED / "data" / "pose2sim-demo"
+DEMO = Path(os.environ.get("MOCAP_SHARED_DATA") or SHARED / "data") / "pose2sim-demo"
 
 
 def test_detected_corners_lie_on_the_projected_board_corners():
@@ -59,7 +62,8 @@ def test_board_specifications_are_parsed_and_bad_ones_refused():
             parse_board(bad)
 
 
-@pytest.mark.skipif(not (DEMO / "calibration" / "intrinsics").is_dir(), reason="../shared/data/pose2sim-demo absent")
+@pytest.mark.skipif(not (DEMO / "calibration" / "intrinsics").is_dir(),
+                    reason="../shared/data/pose2sim-demo is absent")
 def test_demo_checkerboards_match_the_qualisys_focal_lengths():
     """Focal lengths within 1 % of Qualisys'. The principal points differ by 28-49 px for every
     camera in the same direction (ours all near (558, 936)); Qualisys' own intrinsics reproject
