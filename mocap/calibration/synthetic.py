@@ -13,7 +13,8 @@ from mocap.cameras import Camera
 def render_board(camera: Camera, board: Board, world_from_board: np.ndarray, supersample: int = 3,
                  background: int = 128) -> np.ndarray:
     """(H, W) uint8 image of a checkerboard (white margin of one square) posed by the 4x4
-    ``world_from_board`` seen by ``camera`` (with its distortion)."""
+    ``world_from_board`` seen by ``camera`` (with its distortion). The pattern is printed on
+    the board's -z side; seen from behind the board is a plain grey card."""
     s = int(supersample)
     W, H = camera.width, camera.height
     out = np.full((H, W), float(background))
@@ -50,6 +51,8 @@ def render_board(camera: Camera, board: Board, world_from_board: np.ndarray, sup
     img = np.full(len(b), float(background))
     img[margin] = 255.0
     img[inside & ((i + j) % 2 == 0)] = 0.0
+    if (camera.center - p0) @ n > 0:                                        # the back of the board
+        img[margin] = 200.0
     img[~(lam > 0)] = background
     out[v0:v1 + 1, u0:u1 + 1] = img.reshape(h, s, w, s).mean(axis=(1, 3))
     img = out
