@@ -147,3 +147,22 @@ def test_people_in_the_scene_calibrate_a_rig_through_the_command(tmp_path, capsy
     assert max(report["compare"]["centre_error_m"].values()) < 0.01
     assert max(report["compare"]["rotation_error_deg"].values()) < 0.1
     assert load_calibration(out / "Calib.toml").names == rig.names
+
+
+def test_intrinsics_from_a_video_of_the_board(tmp_path, capsys):
+    cam = close_camera()
+    poses = board_poses_facing(np.random.default_rng(0), 8, BOARD, np.array([0, 0, 1.0]),
+                               np.array([0, -1.0, 0]), spread=0.15, tilt_deg=45)
+    (tmp_path / "clips").mkdir()
+    w = cv2.VideoWriter(str(tmp_path / "clips" / "cama.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 10, cam.size)
+    for T in poses:
+        img = cv2.cvtColor(render_board(cam, BOARD, T, supersample=2), cv2.COLOR_GRAY2BGR)
+        for _ in range(3):                                            # each pose held 3 frames
+            w.write(img)
+    w.release()
+    out = tmp_path / "calib"
+    assert main(["calibrate", str(out), "--intrinsics", str(tmp_path / "clips"), "--board", BOARD_ARG,
+                 "--max-video-frames", "8"]) == 0
+    report = json.loads((out / "report.json").read_text())["intrinsics"]["cama"]
+    assert len(report["views_px"]) + len(report["dropped_views_px"]) == 8
+    assert abs(report["K"][0][0] / K[0, 0] - 1) < 0.005          # JPEG-compressed frames: same bound

@@ -134,3 +134,17 @@ def test_noisy_keypoints_of_a_walking_body_give_back_the_rig():
     # joints are the ankles, which rise and fall with the gait)
     R_align = umeyama(metric.centers, rig.centers, scale=False)[1]
     assert np.degrees(np.arccos((R_align @ [0, 0, 1.0])[2])) < 2.0
+
+
+def test_checkerboard_read_from_the_other_end_in_some_views_is_resolved():
+    """A checkerboard's corners may come in either order (a half turn); reversing them in some
+    frames of two cameras changes nothing."""
+    rig = arc_rig()
+    views = [dict(v) for v in arc_views()]
+    for c in (1, 3):
+        for k in sorted(views[c])[::2]:
+            corners, ids = views[c][k]
+            views[c][k] = (corners[::-1].copy(), ids)
+    res = calibrate_board_extrinsics(rig.names, rig.K, rig.dist, BIG_BOARD, views)
+    est = rig_from_poses(rig.names, rig.K, rig.dist, _sizes(rig), res.cams)
+    assert compare_rigs(est, rig, similarity=False).centre_error.max() < 0.01

@@ -86,3 +86,19 @@ def test_demo_checkerboards_match_the_qualisys_focal_lengths():
         f_err = np.abs(r.K[[0, 1], [0, 1]] / ref.K[c][[0, 1], [0, 1]] - 1)
         assert f_err.max() < 0.01, (name, f_err)
         assert np.linalg.norm(r.K[:2, 2] - ref.K[c][:2, 2]) < 50, name
+
+
+def test_charuco_corners_are_found_with_their_ids():
+    """A ChArUco board drawn by OpenCV, seen face on: every inner corner found, at the place its
+    id says (square size in pixels times the corner's column and row, plus the margin)."""
+    import cv2
+
+    board = parse_board("charuco:6x4:0.04:0.03:4X4_50")
+    px_per_square, margin = 80, 40
+    img = board.charuco().generateImage(((board.cols + 1) * px_per_square + 2 * margin,
+                                         (board.rows + 1) * px_per_square + 2 * margin), marginSize=margin)
+    img = cv2.GaussianBlur(img, (3, 3), 0)
+    corners, ids = detect_board(img, board)
+    assert sorted(ids.tolist()) == list(range(board.num_corners))
+    expected = (board.object_points()[ids, :2] / board.square + 1) * px_per_square + margin - 0.5
+    assert np.abs(corners - expected).max() < 0.6
