@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "video-check": ("video_check", "track a video and check it against its keypoints and masks (Hydra)"),
     "recovery": ("recovery", "track with injected failures and measure the recovery (Hydra)"),
     "rescore": ("rescore", "re-score finished runs with today's evaluation, without tracking again"),
+    "calibrate": ("calibrate", "calibrate cameras: board intrinsics; extrinsics from a board or people"),
     "convert": ("convert", "turn a Pose2Sim folder (calibration + OpenPose JSON) into a sequence folder"),
     "gt-from-joints": ("gt_from_joints", "add ground truth to a sequence folder from named 3D joints"),
     "import-motion": ("import_motion", "retarget a BVH clip onto the body: a run's motion.npz"),
