@@ -20,7 +20,6 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     complete run (a valid manifest.json, :mod:`mocap.run_folder.manifest`) unless
     ``require_manifest`` is False; the output path is checked (its folder exists, its suffix
     is the format's) before any work."""
-    from mocap.export.motion import load_motion
     from mocap.run_folder.manifest import require_complete
 
     if fmt not in FORMATS:
@@ -42,6 +41,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
         raise ValueError(f"output {out} is a folder, not a {FORMATS[fmt]} file")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
+    from mocap.export.motion import load_motion        # (numpy: after the checks)
+
     motion = load_motion(run_dir / "motion.npz")
     tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
     try:
