@@ -41,7 +41,7 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
         raise ValueError(f"output {out} is a folder, not a {FORMATS[fmt]} file")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
-    from mocap.export.motion import load_motion        # (numpy: after the checks)
+    from mocap.export.motion import load_motion  # (numpy: after the checks)
 
     motion = load_motion(run_dir / "motion.npz")
     tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")

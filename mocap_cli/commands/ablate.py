@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mocap.eval.ablation import collect, markdown, plot, table_rows, write_csv
 from mocap_cli.errors import ArgumentParser
 
 
@@ -34,6 +33,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="keep runs without a valid manifest.json (written before manifests) in the table, "
                         "each listed as UNVERIFIED")
     args = p.parse_args(argv)
+    from mocap.eval.ablation import collect, markdown, plot, table_rows, write_csv
+
     got = collect(args.sweep_dir, require_manifest=not args.accept_unverified)
     out = args.out or args.sweep_dir
     out.mkdir(parents=True, exist_ok=True)
