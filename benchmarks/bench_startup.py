@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -78,13 +79,17 @@ def environment(mode: str, empty: Path) -> dict[str, str]:
     return env
 
 
-def timed(argv: list[str], env: dict[str, str], status: int) -> float:
+def timed(argv: list[str], env: dict[str, str], status: int) -> tuple[float, float]:
+    """(wall seconds, CPU seconds: user + system of the process and its children). On a loaded
+    machine the CPU time is the steadier figure: it is what the wall time is on an idle one."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     r = subprocess.run(argv, capture_output=True, text=True, cwd=REPO, env=env)
     seconds = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if r.returncode != status:
         raise SystemExit(f"{' '.join(argv)} exited {r.returncode} (expected {status}): {r.stderr[-2000:]}")
-    return seconds
+    return seconds, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main() -> None:
@@ -106,24 +111,27 @@ def main() -> None:
         for name in names:                           # warm-up: bytecode and numba caches filled
             argv, status = commands(run, tmp, next(calls))[name]
             timed(argv, environment("cached", empty), status)
-        print(f"{'command':<8} {'mode':<10} {'median s':>9} {'min s':>7}  target   load")
+        print(f"{'command':<8} {'mode':<10} {'median s':>9} {'min s':>7} {'cpu s':>6}  target   load")
         for name in names:
             for mode in args.modes.split(","):
                 load = os.getloadavg()[0]
-                times = []
+                times, cpus = [], []
                 for _ in range(args.repeat):
                     argv, status = commands(run, tmp, next(calls))[name]
-                    times.append(timed(argv, environment(mode, empty), status))
+                    wall, cpu = timed(argv, environment(mode, empty), status)
+                    times.append(wall)
+                    cpus.append(cpu)
                 target = TARGETS.get(name)
                 if isinstance(target, dict):
                     target = target.get(mode)
-                med = statistics.median(times)
-                print(f"{name:<8} {mode:<10} {med:9.2f} {min(times):7.2f}  "
+                med, cpu = statistics.median(times), statistics.median(cpus)
+                print(f"{name:<8} {mode:<10} {med:9.2f} {min(times):7.2f} {cpu:6.2f}  "
                       f"{'' if target is None else f'<= {target}':<7} {load:5.1f}", flush=True)
                 if args.out:
                     with args.out.open("a") as f:
                         f.write(json.dumps({"label": args.label, "command": name, "mode": mode,
-                                            "median_s": med, "times_s": times, "target_s": target,
+                                            "median_s": med, "times_s": times, "cpu_s": cpus,
+                                            "target_s": target,
                                             "load": [load, os.getloadavg()[0]]}) + "\n")
 
 

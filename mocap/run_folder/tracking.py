@@ -16,6 +16,8 @@ metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents t
     recording.*                      enabled, level (summary | standard | full), every, particles,
                                      images, scale (:func:`mocap.recording.factory.recording_settings`)
     motion.vertices                  keep the posed mesh per frame in motion.npz
+    oracle.enabled, oracle.cache     fit the oracle, where to cache it
+                                     (:class:`mocap.eval.run_metrics.OracleSettings`)
     skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.eval.resume`)
 
 Settings are checked before any work (:func:`check_settings`). A re-run moves an earlier
@@ -51,7 +53,7 @@ from mocap.eval.resume import (
     set_aside,
 )
 from mocap.eval.run_metadata import run_metadata
-from mocap.eval.run_metrics import run_metrics
+from mocap.eval.run_metrics import oracle_settings, run_metrics
 from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink, recording_settings
 from mocap.recording.sink import RunInfo
@@ -149,6 +151,7 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
     if mode not in INIT_MODES:
         raise ValueError(f"init.mode must be one of {INIT_MODES}, got {mode!r}")
     rec_cfg = recording_settings(config.get("recording"))     # checked before any work
+    oracle_settings(config.get("oracle"))
     recording = rec_cfg.enabled
     seed = int(config.get("seed", 0))
     threads = resolve_threads(config.get("threads", "auto"), parallel_jobs)
@@ -268,7 +271,7 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
         tracking_seconds = float(np.sum(result.seconds[1:]))
         metrics = {
             "tracker": tracker.name, "seed": seed, "data": seq.name,
-            **run_metrics(body, seq, result.estimates, result.seconds),
+            **run_metrics(body, seq, result.estimates, result.seconds, oracle=config.get("oracle")),
             **search_budget(tracker),
             **({"init": init_info} if init_info else {}),
             # the numeric thread budget the run had: results depend on it at rounding level, and
