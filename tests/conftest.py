@@ -12,6 +12,15 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 
 
+def pytest_configure(config):
+    """The configs' resolvers (``${mocap_data:}``, ``${run_hash:...}``) registered in every test
+    process (each pytest-xdist worker too), so a test composing configs with Hydra directly does
+    not depend on an earlier test having imported :mod:`mocap_cli.hydra_edge`."""
+    from mocap_cli import register_resolvers
+
+    register_resolvers()
+
+
 def body_config(name: str) -> dict:
     """The body preset (DOF list, name, dtype) shipped with the package."""
     from mocap import presets
