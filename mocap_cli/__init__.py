@@ -3,17 +3,20 @@
 Only this package imports Hydra; :mod:`mocap` (the library) never does. The configs live in
 ``conf/`` at the top of the checkout and ship inside the wheel as ``mocap_cli/conf``
 (:data:`CONF_DIR` is whichever of the two this package runs from).
+
+Importing it imports neither Hydra nor OmegaConf (``mocap --help`` stays instant): the config
+resolvers are registered by :func:`register_resolvers`, which the first use of :data:`CONF_DIR`
+and :mod:`mocap_cli.hydra_edge` call.
 """
 
 import os
 from pathlib import Path
 
-from omegaconf import OmegaConf
-
 _HERE = Path(__file__).resolve().parent
 #: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...): the package data
-#: of an installed wheel, else conf/ of the checkout
-CONF_DIR = _HERE / "conf" if (_HERE / "conf").is_dir() else _HERE.parent / "conf"
+#: of an installed wheel, else conf/ of the checkout; read as ``mocap_cli.CONF_DIR``, which
+#: registers the resolvers its configs use
+_CONF_DIR = _HERE / "conf" if (_HERE / "conf").is_dir() else _HERE.parent / "conf"
 
 
 def source_checkout() -> Path | None:
@@ -35,11 +38,6 @@ def data_dir() -> str:
     return str(beside) if (beside / "mismatch").is_dir() else "data"
 
 
-# ${mocap_data:} in conf/data/*.yaml: registered wherever mocap_cli is imported (also in the
-# workers of a --multirun, which import the task function's module)
-OmegaConf.register_new_resolver("mocap_data", data_dir, replace=True)
-
-
 def run_hash(override_dirname: str = "") -> str:
     """A short hash naming a run directory by content: of the job's overrides other than
     tracker, data and seed (Hydra's ``hydra.job.override_dirname``, sorted, with those keys
@@ -49,5 +47,20 @@ def run_hash(override_dirname: str = "") -> str:
     return hashlib.sha256(str(override_dirname).encode()).hexdigest()[:8]
 
 
-# ${run_hash:${hydra.job.override_dirname}} in conf/tracking.yaml's sweep subdir
-OmegaConf.register_new_resolver("run_hash", run_hash, replace=True)
+def register_resolvers() -> None:
+    """Register the resolvers of the configs with OmegaConf: ``${mocap_data:}`` in
+    conf/data/*.yaml and ``${run_hash:${hydra.job.override_dirname}}`` in conf/tracking.yaml's
+    sweep subdir. Called wherever configs are composed: :mod:`mocap_cli.hydra_edge` on import
+    (also in the workers of a --multirun, which import the task function's module) and the
+    first read of :data:`CONF_DIR`."""
+    from omegaconf import OmegaConf
+
+    OmegaConf.register_new_resolver("mocap_data", data_dir, replace=True)
+    OmegaConf.register_new_resolver("run_hash", run_hash, replace=True)
+
+
+def __getattr__(name: str):
+    if name == "CONF_DIR":
+        register_resolvers()
+        return _CONF_DIR
+    raise AttributeError(f"module 'mocap_cli' has no attribute {name!r}")

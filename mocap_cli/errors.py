@@ -4,13 +4,31 @@ and which are the program's (a traceback)."""
 from __future__ import annotations
 
 import argparse
-
-from hydra.errors import HydraException, InstantiationException, MissingConfigException
-from omegaconf.errors import OmegaConfBaseException
+import sys
 
 #: raised by validation before work starts: a setting's value, a missing or existing file, a key
+#: (and any OmegaConf or Hydra error: :func:`_config_errors`)
 USER_ERRORS = (ValueError, FileNotFoundError, FileExistsError, NotADirectoryError, KeyError,
-               PermissionError, OmegaConfBaseException)
+               PermissionError)
+
+
+class _Never(Exception):
+    """Stands for an exception class of a library that was never imported: nothing is one."""
+
+
+def _config_errors() -> tuple[type, type, type, type]:
+    """OmegaConf's base error and Hydra's HydraException, InstantiationException and
+    MissingConfigException; :class:`_Never` for those of a library this process never imported
+    (no exception can then be one of them), so that a command without configs (``mocap export``,
+    ``mocap --help``) does not import Hydra to report a bad argument."""
+    omega = hydra_exc = instantiation = missing = _Never
+    if "omegaconf" in sys.modules:
+        from omegaconf.errors import OmegaConfBaseException as omega
+    if "hydra" in sys.modules:
+        from hydra.errors import HydraException as hydra_exc
+        from hydra.errors import InstantiationException as instantiation
+        from hydra.errors import MissingConfigException as missing
+    return omega, hydra_exc, instantiation, missing
 
 
 class UsageError(ValueError):
@@ -45,15 +63,15 @@ def _binding_error(exc: BaseException) -> bool:
 
 
 def _is_user_error(exc: BaseException) -> bool:
-    from mocap.run_folder.attempt import DURING_WORK_NOTE
-
-    if DURING_WORK_NOTE in getattr(exc, "__notes__", ()):
+    attempt = sys.modules.get("mocap.run_folder.attempt")      # (never imported: no note to find)
+    if attempt is not None and attempt.DURING_WORK_NOTE in getattr(exc, "__notes__", ()):
         return False            # raised after the checks, while tracking: a programming error
+    OmegaConfBaseException, HydraException, InstantiationException, _ = _config_errors()
     if isinstance(exc, InstantiationException):
         cause = exc.__cause__
         return cause is not None and (_is_user_error(cause) or (
             isinstance(cause, TypeError) and "unexpected keyword argument" in str(cause)))
-    return isinstance(exc, (HydraException, *USER_ERRORS)) or _binding_error(exc)
+    return isinstance(exc, (HydraException, OmegaConfBaseException, *USER_ERRORS)) or _binding_error(exc)
 
 
 def _missing_config(message: str) -> str:
@@ -73,6 +91,7 @@ def user_error_message(exc: BaseException) -> str | None:
     line (e.g. "Key 'foo' is not in struct")."""
     if not _is_user_error(exc):
         return None
+    OmegaConfBaseException, HydraException, InstantiationException, MissingConfigException = _config_errors()
     while isinstance(exc, InstantiationException) and exc.__cause__ is not None:
         exc = exc.__cause__
     cause = exc.__cause__

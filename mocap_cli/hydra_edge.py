@@ -19,7 +19,7 @@ from hydra.types import RunMode
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
-from mocap_cli import CONF_DIR, source_checkout
+from mocap_cli import CONF_DIR, source_checkout  # (reading CONF_DIR registers the config resolvers)
 
 VERSION_BASE = "1.3"
 

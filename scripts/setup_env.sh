@@ -58,6 +58,14 @@ if [ ! -f "$stamp" ]; then
   # the detector (mediapipe's legacy pose solution): its declared jax / opencv-contrib are not needed
   .venv/bin/uv pip install -q --python .venv/bin/python --no-deps -r requirements-detect.txt \
     || echo "[setup] WARNING: could not install requirements-detect.txt: mocap detect and its tests are unavailable" >&2
+  # bytecode compiled now, once, not by every process that starts: where PYTHONDONTWRITEBYTECODE=1
+  # (containers, CI) nothing is cached and each `mocap` would compile its modules again (issue 38).
+  # Exit status ignored: a few files shipped inside packages are not Python 3 source.
+  .venv/bin/python -m compileall -q -j 0 "$(.venv/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')" \
+    >/dev/null 2>&1 || true
   rm -f .venv/.synced-*; touch "$stamp"
   .venv/bin/rerun analytics disable >/dev/null 2>&1 || true
 fi
+# the project's own bytecode (a no-op when up to date; a checkout's edited files are recompiled)
+.venv/bin/python -m compileall -q -j 0 mocap mocap_cli >/dev/null \
+  || echo "[setup] WARNING: mocap did not compile to bytecode" >&2

@@ -12,6 +12,15 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 
 
+def pytest_configure(config):
+    """The configs' resolvers (``${mocap_data:}``, ``${run_hash:...}``) registered in every test
+    process (each pytest-xdist worker too), so a test composing configs with Hydra directly does
+    not depend on an earlier test having imported :mod:`mocap_cli.hydra_edge`."""
+    from mocap_cli import register_resolvers
+
+    register_resolvers()
+
+
 def body_config(name: str) -> dict:
     """The body preset (DOF list, name, dtype) shipped with the package."""
     from mocap import presets
@@ -39,13 +48,24 @@ def body_full() -> BodyModel:
 def short_run(tmp_path_factory) -> Path:
     """A short tracked run directory (apf_prior on walk_small, 4 frames, tiny budget,
     recording on): motion.npz, metrics.json, recording.rrd. Used by the export and recording
-    tests."""
+    tests, which only read it. Under pytest-xdist the workers share one run: the first to need
+    it tracks it under a lock in the session's common temporary folder, the others wait and
+    reuse it."""
+    import fcntl
+    import os
     import subprocess
     import sys
 
-    out = tmp_path_factory.mktemp("short_run")
-    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={out}",
-                        "tracker=apf_prior", "frames=4", "data=walk_small", "tracker.particles=6",
-                        "tracker.layers=2"], capture_output=True, text=True, cwd=REPO, timeout=900)
-    assert r.returncode == 0, r.stderr[-3000:]
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent                  # the folder above every worker's own (popen-gwN)
+    out, done = root / "short_run", root / "short_run.done"
+    with open(root / "short_run.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)    # released when the file closes
+        if not done.is_file():
+            r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={out}",
+                                "tracker=apf_prior", "frames=4", "data=walk_small", "tracker.particles=6",
+                                "tracker.layers=2"], capture_output=True, text=True, cwd=REPO, timeout=900)
+            assert r.returncode == 0, r.stderr[-3000:]
+            done.touch()
     return out

@@ -2,6 +2,13 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from pathlib import Path
+
 import numpy as np
 
 from mocap.body.landmarks import LandmarkSet
@@ -17,22 +24,96 @@ def _valid(gt, F: int):
     return None if gt.joint_valid is None else gt.joint_valid[:F]
 
 
+#: the oracle's solver in a run's metrics (:func:`mocap.eval.mismatch.fit_oracle`'s ``method``)
+ORACLE_METHOD = "tracked"
+#: the version of the oracle's results: a cached fit is reused only by the same version (raise it
+#: when the fit or its metrics change)
+ORACLE_VERSION = 1
+
+
+@dataclass(frozen=True)
+class OracleSettings:
+    """The ``oracle`` block of a run's config: the oracle is our body fitted to the true joints
+    (data our model did not generate; the floor every tracker is compared to).
+
+    enabled: fit it (False: a run's metrics.json has no ``oracle`` and the ablation table's oracle
+    columns stay empty; the tracking and every other metric are unchanged). cache: a folder
+    keeping each fit by the content hash of the ground truth it was fitted to (with the body and
+    :data:`ORACLE_VERSION`), so the runs of a sweep over one sequence fit it once (None: only
+    within a process)."""
+
+    enabled: bool = True
+    cache: str | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.enabled, bool):
+            raise ValueError(f"setting oracle.enabled = {self.enabled!r}: true or false")
+        if self.cache is not None and not isinstance(self.cache, str | Path):
+            raise ValueError(f"setting oracle.cache = {self.cache!r}: a folder or null")
+
+
+def oracle_settings(config: Mapping | OracleSettings | None) -> OracleSettings:
+    """OracleSettings from a config's ``oracle`` block (None: the defaults); an unknown key or a
+    bad value raises ValueError naming it."""
+    if isinstance(config, OracleSettings):
+        return config
+    config = dict(config or {})
+    unknown = sorted(set(config) - {f.name for f in fields(OracleSettings)})
+    if unknown:
+        raise ValueError(f"setting oracle.{unknown[0]} is not a setting (oracle has: enabled, cache)")
+    return OracleSettings(**config)
+
+
 _ORACLES: dict = {}
 
 
-def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None) -> dict:
+def oracle_key(body: BodyModel, gt, F: int) -> str:
+    """The content hash naming an oracle fit: the body (name, DOFs, model), the ground truth's
+    names, skeleton, first F frames of joints and validity, the solver and :data:`ORACLE_VERSION`."""
+    from mocap.export.motion import model_hash
+
+    h = hashlib.sha256()
+    h.update(json.dumps([body.name, list(body.dof_names), model_hash(body), list(gt.joint_names),
+                         gt.skeleton or "", F, ORACLE_METHOD, ORACLE_VERSION]).encode())
+    h.update(np.ascontiguousarray(gt.joints[:F], np.float64).tobytes())
+    valid = _valid(gt, F)
+    h.update(b"-" if valid is None else np.ascontiguousarray(valid, bool).tobytes())
+    return h.hexdigest()[:32]
+
+
+def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None,
+                   settings: OracleSettings | None = None) -> dict:
     """The oracle's metrics (:func:`mocap.eval.mismatch.fit_oracle`) on the first ``frames``
-    frames of ``seq``'s ground truth (all: None), computed once per body and sequence in a process."""
+    frames of ``seq``'s ground truth (all: None), computed once per body and ground truth in a
+    process, and once per cache folder when ``settings.cache`` names one (the file
+    ``oracle-<key>.json``, :func:`oracle_key`; written to a temporary name and renamed, so runs in
+    parallel never read half a file)."""
+    settings = settings or OracleSettings()
     gt = seq.gt
     F = gt.num_frames if frames is None else frames
-    key = (body.name, body.num_dofs, seq.name, F, float(np.nansum(gt.joints[:F])))
-    if key not in _ORACLES:
-        _ORACLES[key] = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F),
-                                   gt.skeleton or None).metrics
-    return _ORACLES[key]
+    key = oracle_key(body, gt, F)
+    if key in _ORACLES:
+        return _ORACLES[key]
+    path = None if settings.cache is None else Path(settings.cache) / f"oracle-{key}.json"
+    if path is not None and path.is_file():
+        try:
+            _ORACLES[key] = json.loads(path.read_text())["metrics"]
+            return _ORACLES[key]
+        except (OSError, ValueError, KeyError):
+            pass                                         # unreadable: fitted again, rewritten
+    metrics = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F), gt.skeleton or None,
+                         method=ORACLE_METHOD).metrics
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps({"key": key, "data": seq.name, "frames": F, "metrics": metrics}))
+        os.replace(tmp, path)
+    _ORACLES[key] = metrics
+    return metrics
 
 
-def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], seconds: list[float]) -> dict:
+def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], seconds: list[float],
+                oracle: OracleSettings | Mapping | None = None) -> dict:
     """Accuracy against ground truth (when the sequence has it), speed and effort.
 
     estimates: one per frame, frame 0 being the initialisation; seconds: step time per frame.
@@ -45,6 +126,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     with detections, the keypoint metrics of :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics`
     (reprojection error per view, bone-length stability, jitter); sec_per_frame,
     energy_evals_per_frame, and apf_calls_per_frame when a tracker reports ``apf_called``.
+    ``oracle``: whether and where the oracle is fitted (:class:`OracleSettings`, a run config's
+    ``oracle`` block).
     """
     F = len(estimates)
     tracked = seconds[1:]
@@ -52,7 +135,7 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     out.update(data_settings(seq))
     if seq.gt is not None:
         out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]),
-                                    np.stack([e.alpha for e in estimates])))
+                                    np.stack([e.alpha for e in estimates]), oracle))
     keypoint_recording = "layout" in seq.meta     # read from keypoint files: scored on them too
     if seq.detections is not None and len(seq.detections) and (seq.gt is None or keypoint_recording):
         from mocap.eval.keypoint_metrics import keypoint_run_metrics
@@ -80,12 +163,14 @@ def data_settings(seq: Sequence) -> dict:
     return out
 
 
-def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray) -> dict:
+def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray,
+                     oracle: OracleSettings | Mapping | None = None) -> dict:
     """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,),
     or one shape per frame (F, K) (frame 0: the initialisation): what a run is re-scored with
     when the evaluation changes (``mocap rescore``). Ground truth of several people: the
     per-person scores of :func:`mocap.eval.people.score_people` (the run's one track assigned
-    to the person it follows best)."""
+    to the person it follows best). ``oracle``: as in :func:`run_metrics`."""
+    oracle = oracle_settings(oracle)
     F = len(chis)
     out: dict = {}
     if seq.gt.person_names:
@@ -99,7 +184,8 @@ def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np
         # data our model did not generate: errors fair under mismatch, and the floor
         out["mismatch"] = mismatch_metrics(points, seq.gt.joint_names,
                                            seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
-        out["oracle"] = oracle_metrics(body, seq, F)
+        if oracle.enabled:
+            out["oracle"] = oracle_metrics(body, seq, F, oracle)
     if scores["unscored"]:
         out["unscored_joints"] = scores["unscored"]
     landmarks = LandmarkSet(body)

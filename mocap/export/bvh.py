@@ -14,9 +14,8 @@ from pathlib import Path
 import bvhio
 import numpy as np
 from pyglm import glm
-from scipy.spatial.transform import Rotation
 
-from mocap.export.axes import BVH_FROM_WORLD, points_to, rotations_to
+from mocap.export.axes import BVH_FROM_WORLD, points_to, quaternions_from_rotations, rotations_to
 from mocap.export.motion import Motion
 
 ROOT_CHANNELS = ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
@@ -39,7 +38,7 @@ def write_bvh(motion: Motion, path: str | Path) -> Path:
     par, names = motion.joint_parents, motion.joint_names
     rest = points_to(BVH_FROM_WORLD, motion.rest_joints)
     root_pos = points_to(BVH_FROM_WORLD, motion.joints[:, 0])
-    quats = Rotation.from_matrix(local_rotations(motion).reshape(-1, 3, 3)).as_quat()  # x, y, z, w
+    quats = quaternions_from_rotations(local_rotations(motion).reshape(-1, 3, 3))  # x, y, z, w
     quats = quats.reshape(motion.num_frames, len(names), 4)
     nodes: list[bvhio.BvhJoint] = []
     for j, name in enumerate(names):

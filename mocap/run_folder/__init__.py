@@ -1,9 +1,20 @@
 """A run folder: one tracker over one sequence, written as ``motion.npz``, ``metrics.json`` and
 ``recording.rrd`` (:func:`run_tracking`), and what is read back from a finished one
 (:mod:`mocap.run_folder.read`). Plain Python objects in, no Hydra: the command line
-(``mocap track``, :mod:`mocap_cli`) composes the configuration and hands it over as a dict."""
+(``mocap track``, :mod:`mocap_cli`) composes the configuration and hands it over as a dict.
 
-from mocap.run_folder.read import run_body, run_config, run_sequence, write_json
-from mocap.run_folder.tracking import RunDirectoryConflict, run_tracking
+The names below are imported on first use, so that reading a run folder (its manifest, its
+motion) does not import the trackers."""
 
-__all__ = ["RunDirectoryConflict", "run_body", "run_config", "run_sequence", "run_tracking", "write_json"]
+_LAZY = {"run_body": "read", "run_config": "read", "run_sequence": "read", "write_json": "read",
+         "RunDirectoryConflict": "tracking", "run_tracking": "tracking"}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(f"mocap.run_folder.{_LAZY[name]}"), name)
+    raise AttributeError(f"module 'mocap.run_folder' has no attribute {name!r}")

@@ -9,6 +9,8 @@ naming the setting, its value and what is allowed).
     init.noise_deg, init.noise_translation, init.cache
     recording.*                      :func:`mocap.recording.factory.recording_settings`
     motion.vertices                  keep the posed mesh per frame in motion.npz
+    oracle.enabled, oracle.cache     fit the oracle (our body fitted to the true joints), where to cache
+                                     it (:class:`mocap.eval.run_metrics.OracleSettings`)
     skip_complete, resume_on_change  resuming a sweep (:mod:`mocap.run_folder.resume`)
 """
 
@@ -19,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mocap.eval.run_metrics import OracleSettings, oracle_settings
 from mocap.recording.settings import RecordingSettings, recording_settings
 from mocap.trackers.run import INIT_MODES, StartSettings  # noqa: F401  (INIT_MODES: re-exported)
 
@@ -46,6 +49,7 @@ class RunSettings:
     init: StartSettings = field(default_factory=StartSettings)
     recording: RecordingSettings = field(default_factory=RecordingSettings)
     motion: MotionSettings = field(default_factory=MotionSettings)
+    oracle: OracleSettings = field(default_factory=OracleSettings)
     skip_complete: bool = False
     resume_on_change: str = "rerun"
 
@@ -73,7 +77,8 @@ class RunSettings:
         init = {k: v for k, v in dict(config.get("init") or {}).items() if k in _INIT_KEYS}
         motion = dict(config.get("motion") or {})
         return cls(**given, init=StartSettings(**init), recording=recording_settings(config.get("recording")),
-                   motion=MotionSettings(vertices=bool(motion.get("vertices", False))))
+                   motion=MotionSettings(vertices=bool(motion.get("vertices", False))),
+                   oracle=oracle_settings(config.get("oracle")))
 
 
 _INIT_KEYS = ("mode", "noise_deg", "noise_translation", "cache")

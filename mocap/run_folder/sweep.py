@@ -140,7 +140,8 @@ def collect(sweep_dir: str | Path, require_manifest: bool = True) -> Collected:
 
 
 #: config keys that do not make two runs of one row different (bookkeeping, output, seed)
-SAME_RUN_KEYS = ("seed", "skip_complete", "resume_on_change", "recording", "motion", "threads", "hydra")
+SAME_RUN_KEYS = ("seed", "skip_complete", "resume_on_change", "recording", "motion", "threads", "hydra",
+                 "oracle")
 
 
 def _flat(config, prefix: str = "") -> dict:

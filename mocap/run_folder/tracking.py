@@ -231,7 +231,7 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
         if result.several_people:
             metrics, arrays = _people_outputs(body, seq, tracker, result, info, start_seconds)
         else:
-            metrics, arrays = _person_outputs(body, seq, tracker, result, info, p.init_info,
+            metrics, arrays = _person_outputs(body, seq, tracker, result, info, p.init_info, settings.oracle,
                                               settings.motion.vertices)
         metrics.update(threads=threads, wall_seconds=wall, recording_seconds=record.seconds[0],
                        config=config)
@@ -303,11 +303,11 @@ def _people_recorder(body, seq, sink, scorer):
     return record
 
 
-def _person_outputs(body, seq, tracker, result, info, init_info, vertices):
+def _person_outputs(body, seq, tracker, result, info, init_info, oracle, vertices):
     """(metrics, motion arrays) of a single-person run (:mod:`mocap.export.motion`)."""
     tracking_seconds = float(np.sum(result.seconds[1:]))
     metrics = {"tracker": tracker.name, "seed": info["seed"], "data": seq.name,
-               **run_metrics(body, seq, result.estimates, result.seconds),
+               **run_metrics(body, seq, result.estimates, result.seconds, oracle=oracle),
                **tracker.budget.as_metrics(),
                **({"init": init_info} if init_info else {}),
                "tracking_seconds": tracking_seconds}

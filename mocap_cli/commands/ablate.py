@@ -19,8 +19,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mocap.run_folder.sweep import collect, markdown, table_rows, write_csv
-from mocap.run_folder.sweep_plots import plot
 from mocap_cli.errors import ArgumentParser
 
 
@@ -35,6 +33,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="keep runs without a valid manifest.json (written before manifests) in the table, "
                         "each listed as UNVERIFIED")
     args = p.parse_args(argv)
+    from mocap.run_folder.sweep import collect, markdown, table_rows, write_csv
+    from mocap.run_folder.sweep_plots import plot
+
     got = collect(args.sweep_dir, require_manifest=not args.accept_unverified)
     out = args.out or args.sweep_dir
     out.mkdir(parents=True, exist_ok=True)

@@ -19,9 +19,6 @@ import json
 import time
 from pathlib import Path
 
-from mocap.body.build.assemble import ANNY_ATTRIBUTION, BuildSettings, build_model
-from mocap.body.build.database import load_mesh_folder, sample_anny
-from mocap.body.model_file import default_model_path, load_body_model_data, save_body_model_data
 from mocap_cli.errors import ArgumentParser
 
 
@@ -31,11 +28,17 @@ def main(argv: list[str] | None = None) -> int:
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--anny", type=int, metavar="N", help="sample N adult bodies from anny")
     src.add_argument("--meshes", type=Path, help="folder of registered meshes of one topology")
-    p.add_argument("--out", type=Path, default=default_model_path())
+    p.add_argument("--out", type=Path, default=None, help="model file (default: the packaged one, "
+                   "mocap/body/assets/body_model.npz)")
     p.add_argument("--components", type=int, default=20)
     p.add_argument("--target-faces", type=int, default=10000)
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
+    from mocap.body.build.assemble import ANNY_ATTRIBUTION, BuildSettings, build_model
+    from mocap.body.build.database import load_mesh_folder, sample_anny
+    from mocap.body.model_file import default_model_path, load_body_model_data, save_body_model_data
+
+    args.out = args.out or default_model_path()
 
     t0 = time.time()
     settings = BuildSettings(num_components=args.components, target_faces=args.target_faces,

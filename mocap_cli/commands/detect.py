@@ -24,8 +24,6 @@ import argparse
 import sys
 import warnings
 
-from mocap.video.detect import plan_detection, run_detection
-from mocap.video.detector import DetectorSettings, detector_available
 from mocap_cli.errors import ArgumentParser
 
 
@@ -55,6 +53,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--force", action="store_true", help="redo views already done")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
+    from mocap.video.detect import plan_detection, run_detection
+    from mocap.video.detector import DetectorSettings, detector_available
+
     if not detector_available():
         raise FileNotFoundError("the detector needs mediapipe==0.10.14, which is not installed: run "
                                 "bash scripts/setup_env.sh (or see requirements-detect.txt)")

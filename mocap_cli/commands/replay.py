@@ -17,7 +17,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-from mocap.recording.reader import read_recording, summary_text
 from mocap_cli.errors import ArgumentParser
 
 
@@ -38,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("target", type=Path, help="run directory or .rrd file")
     p.add_argument("--summary", action="store_true", help="print the summary, never open a viewer")
     args = p.parse_args(argv)
+    from mocap.recording.reader import read_recording, summary_text
+
     rrd = find_recording(args.target)
     problem = None
     if args.target.is_dir():

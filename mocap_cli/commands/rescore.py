@@ -20,9 +20,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-from mocap.eval.run_metrics import accuracy_metrics
-from mocap.export.motion import load_motion
-from mocap.run_folder import run_body, run_sequence, write_json
 from mocap.run_folder.manifest import PREVIOUS, read_manifest, require_complete, write_manifest
 from mocap_cli import source_checkout
 from mocap_cli.errors import ArgumentParser
@@ -43,6 +40,10 @@ def run_dirs(targets: list[Path]) -> list[Path]:
 def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]:
     """(old, new) accuracy figures of one run; metrics.json (and the manifest's checksum of it)
     rewritten unless ``dry_run``. A folder that is not a complete run is refused."""
+    from mocap.eval.run_metrics import accuracy_metrics
+    from mocap.export.motion import load_motion
+    from mocap.run_folder import run_body, run_sequence, write_json
+
     require_complete(run)
     metrics = json.loads((run / "metrics.json").read_text())
     if "config" not in metrics:

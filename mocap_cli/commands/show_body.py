@@ -7,22 +7,20 @@ shape components, and a few poses of the paper's 22 DOFs. Writes a Rerun recordi
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
-
-from mocap import presets  # noqa: E402
-from mocap.body import BodyModel, load_body_model  # noqa: E402
-from mocap.recording.body_gallery import write_body_gallery  # noqa: E402
 from mocap_cli.errors import ArgumentParser
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mocap.body import BodyModel
 
 
 def gallery(model: BodyModel) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(shapes (F, K), poses (F, D), labels): mean, +-3 sigma on components 1-3, 4 poses."""
+    import numpy as np
+
     shapes, poses, labels = [], [], []
     K = model.num_shape
     shapes.append(np.zeros(K))
@@ -57,6 +55,13 @@ def gallery(model: BodyModel) -> tuple[np.ndarray, np.ndarray, list[str]]:
 
 def contact_sheet(model: BodyModel, shapes, poses, labels, path: Path) -> Path:
     """Shaded front views of every gallery body (matplotlib, no GPU)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
     n = len(labels)
     cols = 6
     rows = int(np.ceil(n / cols))
@@ -96,6 +101,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--png", type=Path, default=None, help="also write the contact sheet here")
     p.add_argument("--body", default="paper22", help="body preset (mocap/presets/body)")
     args = p.parse_args(argv)
+    from mocap import presets
+    from mocap.body import load_body_model
+    from mocap.recording.body_gallery import write_body_gallery
+
     cfg = presets.read("body", args.body)
     model = load_body_model(cfg["dofs"], cfg.get("model_file"))
     shapes, poses, labels = gallery(model)

@@ -13,9 +13,6 @@ import argparse
 from pathlib import Path
 
 from mocap import presets
-from mocap.body import load_body_model
-from mocap.energy.prior import default_prior_path
-from mocap.energy.train_prior import train_prior
 from mocap_cli.errors import ArgumentParser
 
 
@@ -27,6 +24,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=None)
     args = p.parse_args(argv)
+    from mocap.body import load_body_model
+    from mocap.energy.prior import default_prior_path
+    from mocap.energy.train_prior import train_prior
+
     cfg = presets.read("body", args.body)
     body = load_body_model(cfg["dofs"], cfg.get("model_file"), name=cfg["name"])
     prior = train_prior(body, args.samples, args.seed)

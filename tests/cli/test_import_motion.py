@@ -5,12 +5,14 @@ input is one line and exit code 2, before anything is written."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mocap.export.motion import load_motion
 from mocap_cli.main import main
 from tests.clips.test_retarget import own_bvh, own_motion
 
 
+@pytest.mark.slow
 def test_import_motion_round_trip(body, tmp_path, capsys):
     chi, alpha = own_motion(body, "walk", frames=10, seed=2)
     clip = own_bvh(body, chi, alpha, tmp_path / "own.bvh")

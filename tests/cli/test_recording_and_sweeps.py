@@ -68,6 +68,7 @@ def test_recording_can_be_switched_off(tmp_path):
     assert (tmp_path / "metrics.json").is_file() and not list(tmp_path.glob("*.rrd*"))
 
 
+@pytest.mark.slow
 def test_multirun_two_trackers_two_seeds_then_resume_and_ablate(tmp_path):
     sweep = tmp_path / "sweep"
     args = ["--multirun", f"hydra.sweep.dir={sweep}", "tracker=apf,apf_prior", "seed=0,1",

@@ -42,6 +42,7 @@ def test_rescoring_an_unchanged_evaluation_gives_the_runs_own_figures(short_run,
     assert rescore(tmp_path / "nothing").returncode == 2
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not WALK.is_dir(), reason="data/mismatch not in this checkout")
 def test_rescoring_a_mismatch_run_scores_the_oracles_poses_as_the_oracle(tmp_path):
     """A run whose motion is the oracle's own fit (5 frames) is re-scored at the oracle's raw

@@ -14,6 +14,7 @@ REPO = Path(__file__).resolve().parents[2]
 WALK = REPO / "data" / "mismatch" / "walk"
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not WALK.is_dir(), reason="the model-mismatch data is not in this checkout")
 def test_the_floor_starts_at_the_oracle_and_each_pose_round_lowers_the_silhouette_energy():
     from experiments import silhouette_floor

@@ -114,3 +114,38 @@ def test_oracle_uses_the_skeleton_mapping_and_validity(body):
     fit = fit_oracle(body, gt_names, gt, valid, "humaneva15")
     assert fit.metrics["raw_mm"] < 1.0
     assert set(fit.metrics["offsets_mm"]) == set(gt_names)
+
+
+@pytest.mark.parametrize("motion", ["walk", "box"])
+def test_tracked_oracle_reaches_ground_truth_made_by_our_own_model(body, motion):
+    """The run metrics' solver (warm-started frame to frame, issue 38) reaches our own model's
+    joints as the trust region does."""
+    chi, alpha, J = own_joints(body, motion, 20)
+    fit = fit_oracle(body, body.joint_names, J, method="tracked")
+    assert fit.metrics["raw_mm"] < 0.1
+    assert fit.chi.shape == (20, body.num_dofs)
+    np.testing.assert_allclose(body.shaped(fit.alpha).joints(fit.chi), J, atol=5e-4)
+
+
+def test_tracked_oracle_uses_the_skeleton_mapping_and_validity(body):
+    from mocap.body.catalogue import landmarks_with
+    from mocap.eval.by_name import SKELETONS, estimate_points
+
+    chi, alpha, J = own_joints(body, "walk", 8)
+    table = SKELETONS["humaneva15"]
+    gt_names = list(table)[::-1]
+    marks = landmarks_with(body, list(table.values()))
+    pts = estimate_points(body.joint_names, J, marks.names,
+                          marks.positions(body.shaped(alpha), chi).astype(np.float64))
+    gt = np.stack([pts[table[n]] for n in gt_names], axis=1)
+    valid = np.ones(gt.shape[:2], bool)
+    valid[2:5, gt_names.index("lwri")] = False
+    gt[2:5, gt_names.index("lwri")] = 100.0                   # garbage where invalid
+    fit = fit_oracle(body, gt_names, gt, valid, "humaneva15", method="tracked")
+    assert fit.metrics["raw_mm"] < 1.0
+    assert set(fit.metrics["offsets_mm"]) == set(gt_names)
+
+
+def test_an_unknown_oracle_method_is_refused(body):
+    with pytest.raises(ValueError, match="oracle method 'fast'"):
+        fit_oracle(body, body.joint_names, np.zeros((2, body.num_joints, 3)), method="fast")
