@@ -11,7 +11,8 @@ metrics.json stores under ``"config"``; mocap_cli/conf/tracking.yaml documents t
 
     seed, frames, threads            the data/tracker seed (an int >= 0), frames to track (an int
                                      >= 1, at most the data's; None or "all": all), thread budget
-    init.mode                        gt_noise (ground truth + noise) | tracker (self-initialised)
+    init.mode                        auto (gt_noise where the data has a ground-truth pose, else
+                                     tracker) | gt_noise (ground truth + noise) | tracker (self-initialised)
     init.noise_deg, init.noise_translation, init.cache
     recording.*                      enabled, level (summary | standard | full), every, particles,
                                      images, scale (:func:`mocap.recording.factory.recording_settings`)
@@ -67,7 +68,7 @@ Wrap = Callable[[Tracker, BodyModel, Sequence], Tracker]
 #: extra(metrics, result, body, seq): more metrics, merged before metrics.json is written
 Extra = Callable[[dict, TrackResult, BodyModel, Sequence], dict]
 
-INIT_MODES = ("gt_noise", "tracker")
+INIT_MODES = ("auto", "gt_noise", "tracker")
 
 
 class RunDirectoryConflict(FileExistsError):
@@ -145,7 +146,7 @@ def _run(out_dir, config, make_body, make_sequence, make_tracker, parallel_jobs,
          overrides):
     frames = check_settings(config)
     init_cfg = dict(config.get("init") or {})
-    mode = init_cfg.get("mode", "gt_noise")
+    mode = init_cfg.get("mode", "auto")
     if mode not in INIT_MODES:
         raise ValueError(f"init.mode must be one of {INIT_MODES}, got {mode!r}")
     rec_cfg = recording_settings(config.get("recording"))     # checked before any work
@@ -204,7 +205,8 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
     if frames is not None and frames > seq.num_frames:
         raise ValueError(f"setting frames = {frames} is beyond the data: {seq.name!r} has {seq.num_frames} "
                          "frames (frames=all or frames=null tracks every frame)")
-    if (seq.gt is None or seq.gt.chi is None) and mode == "gt_noise":
+    has_pose = seq.gt is not None and seq.gt.chi is not None
+    if not has_pose and mode == "gt_noise":
         raise ValueError(f"sequence {seq.name!r} has no ground-truth pose chi: use init.mode=tracker")
     rng = np.random.default_rng(seed)
     keep_particles = rec_cfg.keep_particles
@@ -212,6 +214,8 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
                            keep_particles=keep_particles)
     if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work
         tracker.check_sequence(seq)
+    if mode == "auto":      # the ground truth's pose (with noise) where there is one, else the own start
+        mode = "gt_noise" if has_pose and not getattr(tracker, "several_people", False) else "tracker"
     if getattr(tracker, "several_people", False):
         from mocap.run_folder.people import check_people_run
 
