@@ -214,7 +214,7 @@ def _prepare(config, mode, init_cfg, rec_cfg, seed, frames, make_body, make_sequ
                            keep_particles=keep_particles)
     if hasattr(tracker, "check_sequence"):        # tracker/data compatibility, before any work
         tracker.check_sequence(seq)
-    if mode == "auto":      # the ground truth's pose (with noise) where there is one, else the own start
+    if mode == "auto":      # gt + noise where the data has a pose, else the tracker's own start
         mode = "gt_noise" if has_pose and not getattr(tracker, "several_people", False) else "tracker"
     if getattr(tracker, "several_people", False):
         from mocap.run_folder.people import check_people_run
