@@ -8,7 +8,9 @@ library (:mod:`mocap`) never sees a DictConfig.
 from __future__ import annotations
 
 import contextlib
+import difflib
 import os
+import re
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -61,8 +63,11 @@ class _Task:
         self.failure: Exception | None = None
 
     def __call__(self, cfg: DictConfig) -> object:
+        from mocap_cli.quiet import printed_lines_logged
+
         try:
-            return self.task(cfg)
+            with printed_lines_logged():        # the job's <name>.log holds what it printed
+                return self.task(cfg)
         except Exception as exc:
             if HydraConfig.get().mode != RunMode.RUN:
                 raise
@@ -79,10 +84,46 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
     wrapped = _Task(task)
     main = hydra.main(version_base=VERSION_BASE, config_path=str(CONF_DIR), config_name=config_name)(wrapped)
     with _argv([prog, *(overrides or [])]):
-        main()
+        try:
+            main()
+        except Exception as exc:
+            hint = unknown_key_hint(exc, config_name, list(overrides or []), prog)
+            if hint is None:
+                raise
+            raise UnknownKeyError(hint) from exc
     if wrapped.failure is not None:
         raise wrapped.failure
     return 0
+
+
+class UnknownKeyError(KeyError):
+    """An override names a key the config does not have (a user error, with a did-you-mean)."""
+
+
+_UNKNOWN_KEY = re.compile(r"Could not override '([^']+)'.*Key '([^']+)' is not in struct", re.S)
+
+
+def unknown_key_hint(exc: BaseException, config_name: str, overrides: list[str],
+                     prog: str = "mocap <command>") -> str | None:
+    """For Hydra's "Could not override 'frame' ... Key 'frame' is not in struct": one line naming
+    the key, the closest keys of its config node ("did you mean frames?") and where the keys are
+    listed; None for any other error."""
+    match = _UNKNOWN_KEY.search(f"{exc} {exc.__cause__ or ''}")
+    if match is None:
+        return None
+    path = match.group(1)
+    parent, _, key = path.rpartition(".")
+    try:
+        others = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") != path]
+        cfg = compose(config_name, [o for o in others if not o.startswith("-")])
+        node = OmegaConf.select(cfg, parent) if parent else cfg
+        keys = [str(k) for k in node.keys()] if isinstance(node, DictConfig) else []
+    except Exception:       # the other overrides do not compose either: no suggestion
+        keys = []
+    close = difflib.get_close_matches(key, keys, n=3, cutoff=0.6)
+    where = f"{parent}." if parent else ""
+    hint = f" (did you mean {' or '.join(where + c for c in close)}?)" if close else ""
+    return f"unknown setting {path!r}{hint}; `{prog} --cfg job` lists the settings"
 
 
 def compose(config_name: str, overrides: list[str] | None = None,
