@@ -292,6 +292,11 @@ def _track(out_dir, config, prepared, sink, recording, seed, threads, source, ex
             metrics.update(extra(metrics, result, body, seq))
         for flag in metrics["quality"]["flags"]:
             print(f"WARNING: {flag}", file=sys.stderr)
+        if metrics.get("frames_without_detections"):        # tracked blind (mocap.eval.run_metrics)
+            blind = metrics["frames_without_detections"]
+            print(f"WARNING: {len(blind)} of {F} frames had no detection in any view (tracked blind): "
+                  f"frames {', '.join(map(str, blind[:20]))}{' ...' if len(blind) > 20 else ''}",
+                  file=sys.stderr)
         # the motion first (kept when the recording fails), then the metrics, the recording,
         # and last the manifest that makes the folder a complete run
         vertices = bool((config.get("motion") or {}).get("vertices"))
