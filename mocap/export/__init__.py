@@ -11,7 +11,7 @@ FORMATS = {"bvh": ".bvh", "trc": ".trc", "gltf": ".glb", "c3d": ".c3d"}
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
                overwrite: bool = False, body=None, markers: str = "landmarks",
-               require_manifest: bool = True) -> Path:
+               require_manifest: bool = True, influences: int = 4) -> Path:
     """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
     ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
     (its ``metrics.json``). ``markers`` (TRC, C3D): landmarks (the body's default set),
@@ -19,12 +19,15 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     renamed; an existing output is kept unless ``overwrite``. The run folder must be a
     complete run (a valid manifest.json, :mod:`mocap.run_folder.manifest`) unless
     ``require_manifest`` is False; the output path is checked (its folder exists, its suffix
-    is the format's) before any work."""
+    is the format's) before any work. ``influences`` (glTF): joints per vertex, 4 (default, what
+    every reader applies) or 8 (mocap's skinning exactly; :mod:`mocap.export.gltf`)."""
     from mocap.export.motion import load_motion
     from mocap.run_folder.manifest import require_complete
 
     if fmt not in FORMATS:
         raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
+    if influences not in (4, 8):
+        raise ValueError(f"setting influences = {influences!r} is out of range (4 or 8)")
     run_dir = Path(run_dir)
     if not (run_dir / "motion.npz").is_file() and not (run_dir / "previous_run").is_dir():
         raise FileNotFoundError(f"{run_dir}: no motion.npz (is it a finished run directory?)")
@@ -56,7 +59,7 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
             write_c3d(motion, tmp, which=markers)
         else:
             from mocap.export.gltf import write_gltf
-            write_gltf(motion, tmp, body if body is not None else run_body(run_dir, motion))
+            write_gltf(motion, tmp, body if body is not None else run_body(run_dir, motion), influences)
         os.replace(tmp, out)
     finally:
         tmp.unlink(missing_ok=True)
