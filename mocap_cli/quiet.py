@@ -36,9 +36,7 @@ def one_line_warnings() -> None:
         with contextlib.suppress(OSError, ValueError):
             stream.write(f"warning: {text} ({category.__name__})\n")
 
-    warnings.showwarning = show
-    # a cause is shown once by show(); "always" lets a message from another line reach it
-    warnings.simplefilter("always")
+    warnings.showwarning = show         # the filters stay Python's (deprecations of libraries hidden)
 
 
 @contextlib.contextmanager

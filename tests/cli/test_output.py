@@ -82,3 +82,12 @@ def test_track_log_holds_what_the_run_printed(tmp_path):
     assert summary.startswith("apf: MPJPE") and str(tmp_path) in summary
     log = (tmp_path / "track.log").read_text()
     assert f"[INFO] - {summary}" in log
+
+
+def test_outside_pytest_a_cause_shows_once_and_library_deprecations_stay_hidden():
+    code = ("import warnings\nfrom mocap_cli.quiet import one_line_warnings\none_line_warnings()\n"
+            "warnings.warn('old api', PendingDeprecationWarning)\n"
+            "for i in range(3):\n    warnings.warn('padded')\nwarnings.warn('padded')\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60,
+                       env={k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"})
+    assert r.returncode == 0 and r.stderr == "warning: padded (UserWarning)\n"
