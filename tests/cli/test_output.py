@@ -45,6 +45,13 @@ def test_an_unknown_setting_without_a_close_one_names_where_the_settings_are():
                                 "lists the settings")
 
 
+def test_an_unknown_option_of_a_flag_command_gets_a_did_you_mean(tmp_path):
+    r = mocap("convert", str(tmp_path), str(tmp_path / "out"), "--fsp", "60")
+    assert r.returncode == 2
+    assert r.stderr.strip() == ("mocap convert: error: unrecognized arguments: --fsp 60; did you mean "
+                                "--fps? (mocap convert --help)")
+
+
 def emit(text: str, category=UserWarning):
     warnings.warn(text, category, stacklevel=1)
 
