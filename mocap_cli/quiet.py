@@ -96,6 +96,9 @@ class _LogTee(io.TextIOBase):
     def fileno(self) -> int:
         return self.stream.fileno()
 
+    def __getattr__(self, name):            # buffer, errors, ...: the wrapped stream's
+        return getattr(self.stream, name)
+
 
 @contextlib.contextmanager
 def printed_lines_logged() -> Iterator[None]:
