@@ -80,6 +80,9 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
     """Run ``task`` under ``@hydra.main`` with the config ``config_name`` of
     :data:`mocap_cli.CONF_DIR` and the command line ``overrides`` (Hydra's own flags included:
     ``--multirun``, ``--cfg job``, ``--help``); errors are raised, not printed."""
+    if any(o in ("--help", "-h") for o in overrides or []):
+        print(short_help(task, config_name, prog))
+        return 0
     _register_schema()
     wrapped = _Task(task)
     main = hydra.main(version_base=VERSION_BASE, config_path=str(CONF_DIR), config_name=config_name)(wrapped)
@@ -94,6 +97,34 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
     if wrapped.failure is not None:
         raise wrapped.failure
     return 0
+
+
+#: the config groups a short --help lists the options of, with the overrides most runs change
+_HELP_GROUPS = ("tracker", "data", "body", "cameras")
+_HELP_COMMON = ("frames=N", "seed=N", "threads=N", "init.mode=auto|gt_noise|tracker",
+                "recording.enabled=false", "hydra.run.dir=DIR", "--multirun KEY=A,B")
+
+
+def short_help(task: Callable, config_name: str, prog: str) -> str:
+    """A Hydra command's --help: what it does (its module docstring), the options of its config
+    groups, common overrides, where the settings live; the full config is one flag away."""
+    import textwrap
+
+    doc = (sys.modules[task.__module__].__doc__ or "").strip()
+    lines = [doc, ""] if doc else []
+    cfg = compose(config_name)
+    for group in _HELP_GROUPS:
+        folder = Path(CONF_DIR) / group
+        if group in cfg and folder.is_dir():
+            names = sorted(p.stem for p in folder.glob("*.yaml"))
+            lines += textwrap.wrap(f"{group}=  {', '.join(names)}", 100, subsequent_indent="    ")
+    common = [c for c in _HELP_COMMON
+              if c.split("=")[0].split(".")[0] in cfg or c.startswith(("--", "hydra"))]
+    conf = Path(CONF_DIR).relative_to(Path(CONF_DIR).parent.parent)
+    lines += [""] + textwrap.wrap("common overrides: " + "  ".join(common), 100, subsequent_indent="    ")
+    lines += [f"settings: {conf}/{config_name}.yaml (and the groups' folders beside it)",
+              f"the full configuration: {prog} --cfg job    Hydra's own help: {prog} --hydra-help"]
+    return "\n".join(lines)
 
 
 class UnknownKeyError(KeyError):

@@ -52,6 +52,15 @@ def test_an_unknown_option_of_a_flag_command_gets_a_did_you_mean(tmp_path):
                                 "--fps? (mocap convert --help)")
 
 
+def test_track_help_is_short_with_the_full_config_one_flag_away():
+    r = mocap("track", "--help")
+    lines = r.stdout.strip().splitlines()
+    assert r.returncode == 0 and len(lines) <= 30          # Hydra's own: 254 lines of config
+    assert lines[0].startswith("``mocap track``: track a sequence")
+    assert any(line.startswith("tracker=  apf,") for line in lines)
+    assert "mocap track --cfg job" in r.stdout and "init.mode=auto" in r.stdout
+
+
 def emit(text: str, category=UserWarning):
     warnings.warn(text, category, stacklevel=1)
 
