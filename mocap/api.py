@@ -20,7 +20,15 @@ from mocap.body import BodyModel, load_body
 from mocap.data.sequence import Sequence
 from mocap.trackers.contract import Tracker
 from mocap.trackers.presets import make_tracker
-from mocap.trackers.run import GivenStart, StartSettings, TrackResult, frame_of, run_frames, run_start
+from mocap.trackers.run import (
+    INIT_MODES,
+    GivenStart,
+    StartSettings,
+    TrackResult,
+    frame_of,
+    run_frames,
+    run_start,
+)
 
 
 def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: str = "walk",
@@ -54,11 +62,8 @@ def track(sequence: Sequence, tracker: str | Callable[..., Tracker] = "hybrid", 
     build = (lambda **kw: make_tracker(tracker, **kw)) if isinstance(tracker, str) else tracker
     t = build(body=body, rig=sequence.rig, rng=np.random.default_rng([seed, 1]), **settings)
     t.check_sequence(sequence)
-    if isinstance(init, str) and init == "auto":
-        has_pose = sequence.gt is not None and sequence.gt.chi is not None
-        init = "gt_noise" if has_pose and not t.several_people else "tracker"
     if isinstance(init, str):
-        if init not in ("gt_noise", "tracker"):
+        if init not in INIT_MODES:
             raise ValueError(f"init must be 'auto', 'gt_noise', 'tracker' or a pose, got {init!r}")
         start = run_start(init, t, body, sequence, rng, noise_deg, noise_translation)
     else:

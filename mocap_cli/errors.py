@@ -4,6 +4,7 @@ and which are the program's (a traceback)."""
 from __future__ import annotations
 
 import argparse
+import difflib
 import sys
 
 #: raised by validation before work starts: a setting's value, a missing or existing file, a key
@@ -41,7 +42,13 @@ class ArgumentParser(argparse.ArgumentParser):
     usage and exiting; ``--help`` still prints the help."""
 
     def error(self, message: str):
-        raise UsageError(f"{message} ({self.prog} --help)")
+        hint = ""
+        if message.startswith("unrecognized arguments:"):
+            options = [o for o in self._option_string_actions if o.startswith("--")]
+            close = {a: difflib.get_close_matches(a.split("=")[0], options, n=1, cutoff=0.6)
+                     for a in message.split(":", 1)[1].split() if a.startswith("-")}
+            hint = "".join(f"; did you mean {c[0]}?" for c in close.values() if c)
+        raise UsageError(f"{message}{hint} ({self.prog} --help)")
 
 
 def _one_line(text: str) -> str:

@@ -8,7 +8,9 @@ library (:mod:`mocap`) never sees a DictConfig.
 from __future__ import annotations
 
 import contextlib
+import difflib
 import os
+import re
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -61,8 +63,11 @@ class _Task:
         self.failure: Exception | None = None
 
     def __call__(self, cfg: DictConfig) -> object:
+        from mocap_cli.quiet import printed_lines_logged
+
         try:
-            return self.task(cfg)
+            with printed_lines_logged():        # the job's <name>.log holds what it printed
+                return self.task(cfg)
         except Exception as exc:
             if HydraConfig.get().mode != RunMode.RUN:
                 raise
@@ -75,14 +80,81 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
     """Run ``task`` under ``@hydra.main`` with the config ``config_name`` of
     :data:`mocap_cli.CONF_DIR` and the command line ``overrides`` (Hydra's own flags included:
     ``--multirun``, ``--cfg job``, ``--help``); errors are raised, not printed."""
+    if any(o in ("--help", "-h") for o in overrides or []):
+        print(short_help(task, config_name, prog))
+        return 0
     _register_schema()
     wrapped = _Task(task)
     main = hydra.main(version_base=VERSION_BASE, config_path=str(CONF_DIR), config_name=config_name)(wrapped)
     with _argv([prog, *(overrides or [])]):
-        main()
+        try:
+            main()
+        except Exception as exc:
+            hint = unknown_key_hint(exc, config_name, list(overrides or []), prog)
+            if hint is None:
+                raise
+            raise UnknownKeyError(hint) from exc
     if wrapped.failure is not None:
         raise wrapped.failure
     return 0
+
+
+#: the config groups a short --help lists the options of, with the overrides most runs change
+_HELP_GROUPS = ("tracker", "data", "body", "cameras")
+_HELP_COMMON = ("frames=N", "seed=N", "threads=N", "init.mode=auto|gt_noise|tracker",
+                "recording.enabled=false", "hydra.run.dir=DIR", "--multirun KEY=A,B")
+
+
+def short_help(task: Callable, config_name: str, prog: str) -> str:
+    """A Hydra command's --help: what it does (its module docstring), the options of its config
+    groups, common overrides, where the settings live; the full config is one flag away."""
+    import textwrap
+
+    doc = (sys.modules[task.__module__].__doc__ or "").strip()
+    lines = [doc, ""] if doc else []
+    cfg = compose(config_name)
+    for group in _HELP_GROUPS:
+        folder = Path(CONF_DIR) / group
+        if group in cfg and folder.is_dir():
+            names = sorted(p.stem for p in folder.glob("*.yaml"))
+            lines += textwrap.wrap(f"{group}=  {', '.join(names)}", 100, subsequent_indent="    ")
+    common = [c for c in _HELP_COMMON
+              if c.split("=")[0].split(".")[0] in cfg or c.startswith(("--", "hydra"))]
+    conf = Path(CONF_DIR).relative_to(Path(CONF_DIR).parent.parent)
+    lines += [""] + textwrap.wrap("common overrides: " + "  ".join(common), 100, subsequent_indent="    ")
+    lines += [f"settings: {conf}/{config_name}.yaml (and the groups' folders beside it)",
+              f"the full configuration: {prog} --cfg job    Hydra's own help: {prog} --hydra-help"]
+    return "\n".join(lines)
+
+
+class UnknownKeyError(KeyError):
+    """An override names a key the config does not have (a user error, with a did-you-mean)."""
+
+
+_UNKNOWN_KEY = re.compile(r"Could not override '([^']+)'.*Key '([^']+)' is not in struct", re.S)
+
+
+def unknown_key_hint(exc: BaseException, config_name: str, overrides: list[str],
+                     prog: str = "mocap <command>") -> str | None:
+    """For Hydra's "Could not override 'frame' ... Key 'frame' is not in struct": one line naming
+    the key, the closest keys of its config node ("did you mean frames?") and where the keys are
+    listed; None for any other error."""
+    match = _UNKNOWN_KEY.search(f"{exc} {exc.__cause__ or ''}")
+    if match is None:
+        return None
+    path = match.group(1)
+    parent, _, key = path.rpartition(".")
+    try:
+        others = [o for o in overrides if o.split("=", 1)[0].lstrip("+~") != path]
+        cfg = compose(config_name, [o for o in others if not o.startswith("-")])
+        node = OmegaConf.select(cfg, parent) if parent else cfg
+        keys = [str(k) for k in node.keys()] if isinstance(node, DictConfig) else []
+    except Exception:       # the other overrides do not compose either: no suggestion
+        keys = []
+    close = difflib.get_close_matches(key, keys, n=3, cutoff=0.6)
+    where = f"{parent}." if parent else ""
+    hint = f" (did you mean {' or '.join(where + c for c in close)}?)" if close else ""
+    return f"unknown setting {path!r}{hint}; `{prog} --cfg job` lists the settings"
 
 
 def compose(config_name: str, overrides: list[str] | None = None,

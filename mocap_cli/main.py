@@ -69,6 +69,12 @@ def main(argv: list[str] | None = None) -> int:
         print(usage(), file=sys.stderr)
         return 2
     command, rest = args[0], args[1:]
+    from mocap_cli import quiet
+
+    if debug:
+        os.environ[quiet.DEBUG_ENV] = "1"           # the commands keep native logs (mocap_cli/quiet.py)
+    else:
+        quiet.one_line_warnings()
     if command not in COMMANDS:
         print(f"mocap: error: unknown command {command!r} (commands: {', '.join(COMMANDS)}; "
               "mocap --help)", file=sys.stderr)

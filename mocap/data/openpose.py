@@ -326,7 +326,11 @@ def check_options(layout: str, fps, person: str, min_confidence, frames) -> None
 
 def find_ground_truth(root: Path, gt: str | Path | None) -> Path | None:
     """The ground-truth file of a recording: ``gt`` (as given, else relative to ``root``) or,
-    without it, ``root/gt.npz`` when there is one (never ignored)."""
+    without it, ``root/gt.npz`` when there is one (ignored only with ``gt`` = "none")."""
+    from mocap.data.sequence_io import NO_GT_HINT, gt_opted_out
+
+    if gt_opted_out(gt):
+        return None
     if gt is None:
         found = root / "gt.npz"
         return found if found.is_file() else None
@@ -335,7 +339,7 @@ def find_ground_truth(root: Path, gt: str | Path | None) -> Path | None:
         p = root / p
     if not p.is_file():
         raise FileNotFoundError(f"setting gt = {str(gt)!r}: ground-truth file not found (a gt.npz: "
-                                "joints by name, docs/data_formats.md)")
+                                f"joints by name, docs/data_formats.md; {NO_GT_HINT})")
     return p
 
 
@@ -358,7 +362,7 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
     :class:`OpenPoseFormatError` (a ValueError) for malformed files or camera names that
     don't match the folders.
     """
-    from mocap.data.sequence_io import NONFINITE, load_ground_truth
+    from mocap.data.sequence_io import NONFINITE, load_ground_truth_of_data
 
     root = Path(path)
     check_options(layout, fps, person, min_confidence, frames)
@@ -368,7 +372,7 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
         raise FileNotFoundError(f"recording folder not found: {root}")
     gt_path = find_ground_truth(root, gt)
     dropped: dict[str, int] = {}
-    truth = load_ground_truth(gt_path, None, nonfinite, dropped) if gt_path is not None else None
+    truth = load_ground_truth_of_data(gt_path, None, nonfinite, dropped) if gt_path is not None else None
     layout_setting = layout
     calib = root / calibration if calibration is not None else _find_calibration(root)
     rig = load_calibration(calib)

@@ -56,6 +56,30 @@ class SequenceFormatError(ValueError):
     """A sequence folder is incomplete or inconsistent; the message names file and field."""
 
 
+#: ``gt`` = "none" (or ""): the data is read without ground truth, its gt.npz ignored (one in
+#: another format, or one not wanted for this run)
+NO_GT = ("none", "")
+#: what every error about a folder's ground truth adds: the way out
+NO_GT_HINT = "data.gt=none tracks the data without it"
+
+
+def gt_opted_out(gt) -> bool:
+    """Whether the ``gt`` setting turns the data's ground truth off (:data:`NO_GT`)."""
+    return isinstance(gt, str) and gt.strip().lower() in NO_GT
+
+
+def load_ground_truth_of_data(path: Path, frames: int | None, nonfinite: str, dropped: dict | None,
+                              listed: bool = False) -> GroundTruth:
+    """:func:`load_ground_truth` for a data source's ground truth: an error says how to track
+    without it (:data:`NO_GT_HINT`). listed: sequence.json lists it (a missing file is an error)."""
+    try:
+        if listed and not path.is_file():
+            raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
+        return load_ground_truth(path, frames, nonfinite, dropped)
+    except SequenceFormatError as exc:
+        raise SequenceFormatError(f"{exc}; {NO_GT_HINT}") from None
+
+
 def _frame_name(f: int) -> str:
     return f"{f:06d}.png"
 
@@ -171,7 +195,7 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
     ``nonfinite``: refuse (default) or drop NaN / Inf ground-truth joints and detections.
     ``gt``: a ground-truth file (:func:`load_ground_truth`) used instead of the folder's; without
     it the folder's gt.npz is used whenever it is there (even if sequence.json does not list
-    it: a ground truth is never ignored; its path is ``meta["gt"]``)."""
+    it: a ground truth is never ignored unless ``gt`` is "none"; its path is ``meta["gt"]``)."""
     if nonfinite not in NONFINITE:
         raise ValueError(f"setting nonfinite = {nonfinite!r} is not allowed (one of: {', '.join(NONFINITE)})")
     folder = Path(folder)
@@ -205,10 +229,13 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
     det = (_load_detections(folder / "detections.json", views, frames, nonfinite, dropped)
            if content.get("detections") else None)
     gt_path = Path(gt) if gt is not None else folder / "gt.npz"
-    if gt is not None or (gt_path.is_file() and not content.get("gt")):
-        truth = load_ground_truth(gt_path, frames, nonfinite, dropped)
+    if gt_opted_out(gt):
+        truth = None
+    elif gt is not None or (gt_path.is_file() and not content.get("gt")):
+        truth = load_ground_truth_of_data(gt_path, frames, nonfinite, dropped)
     else:
-        truth = _load_gt(gt_path, frames, nonfinite, dropped) if content.get("gt") else None
+        truth = (load_ground_truth_of_data(gt_path, frames, nonfinite, dropped, listed=True)
+                 if content.get("gt") else None)
     meta = dict(info.get("meta", {}))
     if truth is not None:
         meta["gt"] = str(gt_path)
@@ -394,7 +421,3 @@ def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: st
     return gt
 
 
-def _load_gt(path: Path, frames: int, nonfinite: str = "refuse", dropped: dict | None = None) -> GroundTruth:
-    if not path.is_file():
-        raise SequenceFormatError(f"{path}: not found (sequence.json lists ground truth)")
-    return load_ground_truth(path, frames, nonfinite, dropped)

@@ -14,7 +14,7 @@ from mocap.cameras import rig_from_config
 from mocap.data.corruption import SilhouetteNoise
 from mocap.data.generate import make_synthetic
 from mocap.data.sequence import Detections, Sequence
-from mocap.data.sequence_io import load_sequence
+from mocap.data.sequence_io import NO_GT_HINT, gt_opted_out, load_sequence
 
 
 def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, frames: int,
@@ -39,7 +39,8 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
     nonfinite: NaN / Inf in the ground truth or detections: refuse (default) or drop them
     (counted in the sequence's meta and the run's metrics.json, ``dropped_nonfinite``).
     gt: a ground-truth file used instead of the folder's gt.npz (which is otherwise used
-    whenever it is there): joints by name, :func:`mocap.data.sequence_io.load_ground_truth`.
+    whenever it is there): joints by name, :func:`mocap.data.sequence_io.load_ground_truth`;
+    "none": no ground truth, the folder's gt.npz ignored.
     detections: None or ``{semantics: null}``: the folder's detections; ``{semantics: realistic}``
     (or ``offsets_only``, plus any field of :class:`mocap.data.detector_semantics.DetectorSemantics`):
     detections simulated from the ground-truth joints in every view with a real detector's
@@ -53,9 +54,9 @@ def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: st
         raise ValueError(f"data path {p} is a Pose2Sim folder (Calib.toml, pose/), not a sequence folder: "
                          f"track it with data=pose2sim_demo data.path={p}, or make a sequence folder with "
                          f"mocap convert {p} OUT")
-    if gt is not None and not Path(gt).is_file():
+    if gt is not None and not gt_opted_out(gt) and not Path(gt).is_file():
         raise FileNotFoundError(f"setting gt = {str(gt)!r}: ground-truth file not found (a gt.npz: joints by "
-                                "name, docs/data_formats.md)")
+                                f"name, docs/data_formats.md; {NO_GT_HINT})")
     seq = load_sequence(p, images=images, nonfinite=nonfinite, gt=gt)
     changes: dict = {}
     if detections and dict(detections).get("semantics") is not None:

@@ -112,6 +112,14 @@ def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None,
     return metrics
 
 
+def frames_without_detections(detections, frames: int) -> list[int]:
+    """The frames (of the first ``frames``) in which no view has a detection (ascending)."""
+    seen = np.zeros(frames, bool)
+    f = np.asarray(detections.frame, np.int64)
+    seen[f[(f >= 0) & (f < frames)]] = True
+    return [int(i) for i in np.flatnonzero(~seen)]
+
+
 def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], seconds: list[float],
                 oracle: OracleSettings | Mapping | None = None) -> dict:
     """Accuracy against ground truth (when the sequence has it), speed and effort.
@@ -122,9 +130,11 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     frames_lost (after frame 0, raw error above 150 mm); for ground truth by name only (data our
     model did not generate) ``mismatch`` (raw / offset-removed / limb errors) and ``oracle`` (the
     same for our body fitted to the true joints: :mod:`mocap.eval.mismatch`); mmta,
-    mmtp_mm (when ground-truth markers match the default landmark set); without ground truth but
-    with detections, the keypoint metrics of :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics`
-    (reprojection error per view, bone-length stability, jitter); sec_per_frame,
+    mmtp_mm (when ground-truth markers match the default landmark set); with detections,
+    frames_without_detections (frames tracked with no detection in any view: blind); without
+    ground truth but with detections, the keypoint metrics of
+    :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics` (reprojection error per view,
+    bone-length stability, jitter); sec_per_frame,
     energy_evals_per_frame, and apf_calls_per_frame when a tracker reports ``apf_called``.
     ``oracle``: whether and where the oracle is fitted (:class:`OracleSettings`, a run config's
     ``oracle`` block).
@@ -136,6 +146,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     if seq.gt is not None:
         out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]),
                                     np.stack([e.alpha for e in estimates]), oracle))
+    if seq.detections is not None:      # tracked blind: frames whose views hold no detection at all
+        out["frames_without_detections"] = frames_without_detections(seq.detections, F)
     keypoint_recording = "layout" in seq.meta     # read from keypoint files: scored on them too
     if seq.detections is not None and len(seq.detections) and (seq.gt is None or keypoint_recording):
         from mocap.eval.keypoint_metrics import keypoint_run_metrics

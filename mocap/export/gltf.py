@@ -1,7 +1,13 @@
 """glTF 2.0 binary (GLB) export, written with ``pygltflib``: the run's body as a skinned mesh
-(rest mesh of the run's shape, mocap's skinning weights as JOINTS_0/1 + WEIGHTS_0/1, up to 8
-influences, so the glTF skinning equals mocap's LBS) and one animation with F keyframes:
+(rest mesh of the run's shape, mocap's skinning weights) and one animation with F keyframes:
 a rotation per joint and the root's translation. Y up (``axes.GLTF_FROM_WORLD``), metres.
+
+Skinning: 4 influences per vertex by default (JOINTS_0 + WEIGHTS_0, the 4 largest of mocap's
+weights, renormalised to sum to 1): every glTF reader applies them, whereas a reader that takes
+only the first set (many engines) would see weights summing below 1 on the vertices that mocap
+blends over more than 4 joints (166 of 5002 for paper22, up to 6). ``influences=8``
+(JOINTS_0/1 + WEIGHTS_0/1) keeps mocap's LBS exactly for readers that apply both sets
+(Blender, three.js).
 
 Joint node j sits at its rest position (local translation: the rest bone offset), so the
 skeleton looks right in Blender and three.js; its inverse bind matrix is T(-rest_j).
@@ -18,7 +24,9 @@ from scipy.spatial.transform import Rotation
 from mocap.export.axes import GLTF_FROM_WORLD, points_to, rotations_to
 from mocap.export.motion import Motion
 
-INFLUENCES = 8
+#: influences per vertex: the default and the allowed (a glTF attribute set holds 4)
+INFLUENCES = 4
+ALLOWED_INFLUENCES = (4, 8)
 
 
 class _Blob:
@@ -54,8 +62,11 @@ def skin_influences(weights: np.ndarray, k: int = INFLUENCES) -> tuple[np.ndarra
     return idx.astype(np.uint16), w.astype(np.float32)
 
 
-def write_gltf(motion: Motion, path: str | Path, body) -> Path:
-    """body: the run's :class:`mocap.body.model.BodyModel` (rest mesh, faces, weights)."""
+def write_gltf(motion: Motion, path: str | Path, body, influences: int = INFLUENCES) -> Path:
+    """body: the run's :class:`mocap.body.model.BodyModel` (rest mesh, faces, weights);
+    influences: joints per vertex, 4 or 8 (see the module docstring)."""
+    if influences not in ALLOWED_INFLUENCES:
+        raise ValueError(f"setting influences = {influences!r} is out of range (one of {ALLOWED_INFLUENCES})")
     F, J = motion.num_frames, len(motion.joint_names)
     par = motion.joint_parents
     shaped = body.shaped(motion.alpha[-1])
@@ -71,9 +82,9 @@ def write_gltf(motion: Motion, path: str | Path, body) -> Path:
     b = _Blob()
     pos = b.add(rest_v, "VEC3", gl.FLOAT, gl.ARRAY_BUFFER, minmax=True)
     ind = b.add(np.asarray(body.faces, np.uint32).ravel(), "SCALAR", gl.UNSIGNED_INT, gl.ELEMENT_ARRAY_BUFFER)
-    jnt, wts = skin_influences(np.asarray(body.weights, np.float64))
+    jnt, wts = skin_influences(np.asarray(body.weights, np.float64), influences)
     attrs = {"POSITION": pos}
-    for s in range(INFLUENCES // 4):
+    for s in range(influences // 4):
         attrs[f"JOINTS_{s}"] = b.add(jnt[:, 4 * s:4 * s + 4], "VEC4", gl.UNSIGNED_SHORT, gl.ARRAY_BUFFER)
         attrs[f"WEIGHTS_{s}"] = b.add(wts[:, 4 * s:4 * s + 4], "VEC4", gl.FLOAT, gl.ARRAY_BUFFER)
     ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))

@@ -201,6 +201,8 @@ class RerunSink:
         if error_mm is not None:
             cols.scalar("plots/error/mpjpe_mm", f, error_mm)
         cols.scalar("plots/timing/step", f, seconds)
+        if frame.detections is not None:        # 0: a frame tracked without any detection
+            cols.scalar("plots/input/detections", f, len(frame.detections))
         layers = d.anneal.layers if (d.anneal is not None and s.layers) else ()
         for m, layer in enumerate(layers):          # on their own timeline, not stacked on the frame
             for key, value in flatten_scalars("", layer).items():

@@ -15,7 +15,8 @@ from mocap.run_folder.read import run_config
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
                overwrite: bool = False, body=None, markers: str = "landmarks",
-               require_manifest: bool = True, person: int | None = None) -> Path:
+               require_manifest: bool = True, person: int | None = None,
+               influences: int = 4) -> Path:
     """Export a run directory's motion.npz to ``fmt`` (bvh, trc, gltf, c3d); default output
     ``<run dir>/motion.<ext>``. glTF needs the body model: ``body`` or the run's own config
     (its ``metrics.json``). ``markers`` (TRC, C3D): landmarks (the body's default set),
@@ -24,7 +25,11 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     complete run (a valid manifest.json, :mod:`mocap.run_folder.manifest`) unless
     ``require_manifest`` is False; the output path is checked (its folder exists, its suffix
     is the format's) before any work. ``person``: the track id to export of a several-people
-    run (its motion.npz has a person axis; :func:`mocap.export.people_motion.person_motion`)."""
+    run (its motion.npz has a person axis; :func:`mocap.export.people_motion.person_motion`).
+    ``influences`` (glTF): joints per vertex, 4 (default, what every reader applies) or 8
+    (mocap's skinning exactly; :mod:`mocap.export.gltf`)."""
+    if influences not in (4, 8):
+        raise ValueError(f"setting influences = {influences!r} is out of range (4 or 8)")
     if fmt not in FORMATS:
         raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
     run_dir = Path(run_dir)
@@ -63,7 +68,7 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
             write_c3d(motion, tmp, which=markers)
         else:
             from mocap.export.gltf import write_gltf
-            write_gltf(motion, tmp, body if body is not None else motion_body(run_dir, motion))
+            write_gltf(motion, tmp, body if body is not None else motion_body(run_dir, motion), influences)
         os.replace(tmp, out)
     finally:
         tmp.unlink(missing_ok=True)

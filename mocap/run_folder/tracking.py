@@ -247,6 +247,11 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
             metrics.update(extra(metrics, result, body, seq))
         for flag in metrics.get("quality", {}).get("flags", ()):
             print(f"WARNING: {flag}", file=sys.stderr)
+        if metrics.get("frames_without_detections"):        # tracked blind (mocap.eval.run_metrics)
+            blind = metrics["frames_without_detections"]
+            print(f"WARNING: {len(blind)} of {p.frames} frames had no detection in any view (tracked blind): "
+                  f"frames {', '.join(map(str, blind[:20]))}{' ...' if len(blind) > 20 else ''}",
+                  file=sys.stderr)
         # the motion first (kept when the recording fails), then the metrics, the recording,
         # and last the manifest that makes the folder a complete run
         (write_people_motion if result.several_people else write_motion)(out_dir / "motion.npz", arrays)

@@ -32,6 +32,7 @@ hypothesis, its lead when that was dropped).
 from __future__ import annotations
 
 import numpy as np
+from tqdm import tqdm
 
 from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel, ShapedBody
@@ -207,6 +208,10 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     headings = picked if settings.hypotheses == 0 else [y + d for y in picked for d in (0.0, np.pi)]
     perm, sign = mirror_map(body)
     hypotheses = []
+    keep = min(max(1, settings.keep), len(headings) * (2 if settings.hypotheses > 0 else 1))
+    # 30-70 s on a real recording: a bar counts the searches (headings, then rounds per hypothesis)
+    bar = tqdm(total=len(headings) + settings.rounds * keep + keep, desc="silhouette start-up",
+               unit="search")
     for yaw in headings:
         h = np.zeros(body.num_dofs)
         h[:6] = root_twist(yaw, center[0], center[1])
@@ -217,6 +222,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
         for kind, v in variants:
             hypotheses.append({"heading_deg": float(np.degrees(yaw) % 360), "kind": kind,
                                "energy": fine_energy(alpha, v), "chi": v})
+        bar.update(1)
     hypotheses.sort(key=lambda d: d["energy"])
     kept = hypotheses[:max(1, settings.keep)]
     C, move = settings.shape_components, float(settings.shape_translate)
@@ -251,6 +257,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             a[:C] = c[:C]
             chi = shifted(chi, c[C:]) if move > 0 else chi
             state[i][1:] = [chi, a]
+            bar.update(1)
         if len(alive) > 1 and r < settings.rounds - 1:
             for i in alive:
                 state[i][0].setdefault("round_energy", []).append(fine_energy(state[i][2], state[i][1]))
@@ -261,15 +268,20 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
                     if lead[i] > settings.prune_margin:
                         state[i][0]["pruned_after_round"] = r + 1
                         state[i][0]["lead_when_pruned"] = lead[i]
+                dropped = sum(lead[i] > settings.prune_margin for i in alive)
                 alive = [i for i in alive if lead[i] <= settings.prune_margin]
+                bar.total -= dropped * (settings.rounds - r)      # their later rounds and final search
+                bar.refresh()
     finals = []
     for i, (hyp, chi, a) in enumerate(state):
         if i in alive:
             chi = local(a, chi)
             hyp["final_energy"] = fine_energy(a, chi)
             finals.append((hyp["final_energy"], chi, a))
+            bar.update(1)
         else:                                  # dropped: its energy when it was dropped
             hyp["final_energy"] = hyp["round_energy"][-1]
+    bar.close()
     finals.sort(key=lambda t: t[0])
     _, chi, alpha = finals[0]
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]

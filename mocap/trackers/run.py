@@ -74,16 +74,17 @@ class GivenStart:
 
 
 #: the ways a run starts (``init.mode``)
-INIT_MODES = ("gt_noise", "tracker")
+INIT_MODES = ("auto", "gt_noise", "tracker")
 
 
 @dataclass(frozen=True)
 class StartSettings:
-    """``init.*``: how a run starts (:func:`run_start`): ``mode``, the noise of a ground-truth
-    start (degrees on joint angles, metres on the position), the self-initialisation's cache
-    folder."""
+    """``init.*``: how a run starts (:func:`run_start`): ``mode`` (``auto``: ``gt_noise`` where
+    the data has a ground-truth pose and the tracker follows one person, else ``tracker``), the
+    noise of a ground-truth start (degrees on joint angles, metres on the position), the
+    self-initialisation's cache folder."""
 
-    mode: str = "gt_noise"
+    mode: str = "auto"
     noise_deg: float = 3.0
     noise_translation: float = 0.02
     cache: str | None = None
@@ -103,8 +104,12 @@ def run_start(mode: str, tracker: Tracker, body: BodyModel, seq: Sequence, rng: 
               noise_deg: float = 3.0, noise_translation: float = 0.02, cache=None) -> Initializer:
     """The start of a run: ``gt_noise``, the sequence's ground truth of frame 0 plus noise
     (:func:`noisy_initial_pose`, drawn from ``rng`` now) with its shape; ``tracker``, the
-    tracker's self-initialisation (cached in the folder ``cache``). One-line ValueErrors for a
-    start the data or tracker cannot give."""
+    tracker's self-initialisation (cached in the folder ``cache``); ``auto``, gt_noise where the
+    sequence has a ground-truth pose and the tracker follows one person, else tracker. One-line
+    ValueErrors for a start the data or tracker cannot give."""
+    if mode == "auto":
+        has_pose = seq.gt is not None and seq.gt.chi is not None
+        mode = "gt_noise" if has_pose and not tracker.several_people else "tracker"
     if mode == "gt_noise":
         require_pose(seq)
         if tracker.several_people:

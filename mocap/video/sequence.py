@@ -22,6 +22,7 @@ import numpy as np
 from mocap.cameras import load_calibration
 from mocap.data.openpose import _find_calibration, load_openpose_sequence
 from mocap.data.sequence import Detections, Sequence
+from mocap.data.sequence_io import gt_opted_out
 from mocap.video.frames import VideoFrames, frame_range, match_videos, video_info
 
 
@@ -76,9 +77,9 @@ def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration
         if op.gt is not None:
             truth = _ground_truth_frames(op.gt, [n - first for n in frames], op.meta["gt"])
             resolved["gt"] = op.meta["gt"]
-    elif gt is not None or (root / "gt.npz").is_file():
+    elif not gt_opted_out(gt) and (gt is not None or (root / "gt.npz").is_file()):
         raise ValueError(f"ground truth {gt or root / 'gt.npz'} needs keypoints (its frame 0 is the first "
-                         "keypoint frame): set keypoints (or remove gt.npz)")
+                         "keypoint frame): set keypoints, or data.gt=none to track without it")
     meta = {"source": str(root), "calibration": str(calib), "videos": [str(p) for p in paths],
             "source_frames": frames, "scale": float(scale), **resolved}
     seq = Sequence(name=name or root.name, rig=rig, fps=fps / step, images=images, detections=det,

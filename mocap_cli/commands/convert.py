@@ -1,7 +1,7 @@
 """``mocap convert``: a Pose2Sim folder (calibration, OpenPose JSON per view under pose/,
 optional gt.npz) -> a sequence folder (sequence.json, calibration.json, detections.json, gt.npz).
 
-    mocap convert ../shared/data/pose2sim-demo outputs/demo_seq --fps 60
+    mocap convert ../shared/data/pose2sim-demo outputs/demo_seq           # 60 fps, from its videos
     mocap convert REC OUT --person subject --layout BODY_25B --frames 50
 
 The detector's grouping of keypoints into people is kept per view (detections.json's person
@@ -14,10 +14,26 @@ init.mode=tracker``; ``mocap gt-from-joints JOINTS OUT`` adds ground truth to it
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from mocap.body.skeletons import LAYOUTS
 from mocap.data.openpose import convert_pose2sim
 from mocap_cli.errors import ArgumentParser
+
+
+def videos_fps(recording: Path) -> float:
+    """The frame rate of the recording's videos (videos/*, the first in name order); an error
+    asking for --fps where there are none (no rate is assumed: the Pose2Sim demo is 60 fps)."""
+    videos = sorted(p for p in (recording / "videos").glob("*") if p.is_file()) if recording.is_dir() else []
+    if not videos:
+        raise ValueError(f"{recording}: no videos/ to read the frame rate from: pass --fps (the "
+                         "recording's frames per second; the Pose2Sim demo is 60)")
+    from mocap.data.video import video_info
+
+    fps = float(video_info(videos[0]).fps)
+    if not fps > 0:
+        raise ValueError(f"{videos[0]}: no frame rate in the video: pass --fps")
+    return fps
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -28,7 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--layout", default="auto", choices=["auto", *LAYOUTS], help="keypoint layout (auto)")
     p.add_argument("--person", default="all", choices=["all", "subject"],
                    help="all: everyone, grouped per view as detected; subject: one person per frame")
-    p.add_argument("--fps", type=float, default=30.0, help="frames per second (default 30)")
+    p.add_argument("--fps", type=float, default=None,
+                   help="the recording's frames per second (default: its videos' own, from videos/; "
+                        "required without videos)")
     p.add_argument("--frames", type=int, default=None, help="convert only the first N frames")
     p.add_argument("--min-confidence", type=float, default=0.0, help="drop keypoints below it [0, 1)")
     p.add_argument("--calibration", default=None, help="calibration file inside the folder (default: "
@@ -38,8 +56,9 @@ def main(argv: list[str] | None = None) -> int:
                                               "folder's gt.npz, when there is one)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
     args = p.parse_args(argv)
+    fps = args.fps if args.fps is not None else videos_fps(Path(args.recording))
     out = convert_pose2sim(args.recording, args.out, person=args.person, overwrite=args.overwrite,
-                           layout=args.layout, fps=args.fps, frames=args.frames,
+                           layout=args.layout, fps=fps, frames=args.frames,
                            min_confidence=args.min_confidence, calibration=args.calibration,
                            keypoints=args.keypoints, gt=args.gt)
     from mocap.data.sequence_io import load_sequence

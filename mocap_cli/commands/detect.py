@@ -6,7 +6,8 @@ MEDIAPIPE_33 layout, with confidences) and person masks, in a Pose2Sim-style fol
 
 REC holds a calibration (*.toml, or --calibration FILE) and videos/ with one video per camera
 (named like the calibration's cameras). OUT gets the calibration, links to the videos,
-pose/<cam>_json/*.json, masks/<cam>/*.png and detect.json (mocap/video/detect.py). After
+pose/<cam>_json/*.json, masks/<cam>/*.png and detect.json (mocap/video/detect.py); the
+detector's native logs go to OUT/native.log (to the terminal with mocap --debug). After
 detection a multi-view check mirrors a view's left/right labels where the other views say
 they are swapped (--keep-left-right skips it). Resumable: views already done with the same
 settings are skipped (--force redoes them). Track it:
@@ -21,10 +22,12 @@ that scripts/setup_env.sh installs (requirements-detect.txt).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import warnings
 
 from mocap_cli.errors import ArgumentParser
+from mocap_cli.quiet import debug, native_logs_to
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -72,7 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     skipped = [n for n in plan.names if n not in plan.todo]
     if skipped:
         print(f"views already done with these settings, skipped: {', '.join(skipped)} (--force redoes them)")
-    with warnings.catch_warnings():
+    plan.out.mkdir(parents=True, exist_ok=True)
+    # TensorFlow Lite's and absl's lines (about ten per run) go to OUT/native.log unless --debug
+    native = contextlib.nullcontext() if debug() else native_logs_to(plan.out / "native.log")
+    with warnings.catch_warnings(), native:
         warnings.simplefilter("ignore")             # the padding warning, said above once
         summary = run_detection(plan, progress=not args.no_progress, left_right=not args.keep_left_right)
     too_many = []

@@ -5,7 +5,7 @@
 
 Default output: <run dir>/motion.<bvh|trc|glb|c3d>. The run folder must be a complete run (a
 valid manifest.json); --accept-unverified exports one written before manifests, with a
-WARNING. Axes and units: mocap/export/axes.py.
+WARNING. Axes and units per format: docs/data_formats.md ("Out: exports"), mocap/export/axes.py.
 """
 
 from __future__ import annotations
@@ -31,6 +31,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="TRC/C3D points: the body's landmarks, its joints, or a marker tracker's own")
     p.add_argument("--person", type=int, default=None,
                    help="a several-people run: the person (track id, metrics.json's people) to export")
+    p.add_argument("--influences", type=int, default=4, choices=[4, 8],
+                   help="glTF: joints per vertex; 4 (default) every reader applies, 8 is mocap's "
+                        "skinning exactly (readers that apply two attribute sets)")
     p.add_argument("--accept-unverified", action="store_true",
                    help="export a run folder without a valid manifest.json (written before manifests)")
     args = p.parse_args(argv)
@@ -42,7 +45,8 @@ def main(argv: list[str] | None = None) -> int:
         if problem is not None:
             print(f"WARNING: {args.run_dir}: exporting an unverified run ({problem})", file=sys.stderr)
     out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers,
-                     require_manifest=not args.accept_unverified, person=args.person)
+                     require_manifest=not args.accept_unverified, person=args.person,
+                     influences=args.influences)
     print(f"wrote {out} ({time.perf_counter() - t:.2f} s)")
     return 0
 

@@ -67,10 +67,11 @@ def task(cfg: DictConfig) -> None:
     if metrics is None:
         return
     rep, tri = metrics["reprojection"], metrics["triangulation_reprojection"]
+    iou = "n/a" if metrics["silhouette_iou"] is None else f"{metrics['silhouette_iou']:.3f}"
     print(f"{metrics['tracker']}: reprojection {rep['median_px']:.1f} px raw, "
           f"{rep['fitted_median_px']:.1f} px with offsets (triangulation {tri['median_px']:.1f}); "
-          f"silhouette IoU "
-          f"{metrics['silhouette_iou']}; lost frames {metrics['lost_frames']}; "
+          f"silhouette IoU {iou}; "
+          f"lost frames {metrics['lost_frames']}; "
           f"{metrics['sec_per_frame']:.1f} s/frame")
 
 

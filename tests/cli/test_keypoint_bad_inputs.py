@@ -20,6 +20,7 @@ import pytest
 from mocap_cli.main import main
 from tests.data.keypoint_folders import known_people, write_gt, write_pose2sim
 
+CONVERT = ("convert", "--fps", "30")
 TRACK = ["track", "tracker=marker_apf", "data=pose2sim_demo", "data.fps=25", "init.mode=tracker", "frames=2",
          "recording.enabled=false", "tracker.init.particles=20", "tracker.init.passes=1"]
 BASE: list[Path] = []          # the module's Pose2Sim folder (set by the autouse fixture)
@@ -176,18 +177,19 @@ CASES = [
     ("a Pose2Sim folder as data=folder", lambda t: ["track", "tracker=marker_apf", "data=folder",
                                                     f"data.path={BASE[0]}", "init.mode=tracker"],
      ["Pose2Sim folder", "mocap convert"]),
-    ("convert: layout of another size", lambda t: ["convert", str(BASE[0]), str(t / "o"), "--layout", "COCO"],
+    ("convert: layout of another size", lambda t: [*CONVERT, str(BASE[0]), str(t / "o"), "--layout", "COCO"],
      ["layout COCO has 18 keypoints", "layouts with 25: ['BODY_25B', 'BODY_25']"]),
-    ("convert: output exists", lambda t: ["convert", str(BASE[0]), str(t)], ["exists", "--overwrite"]),
-    ("convert: bad --person", lambda t: ["convert", str(BASE[0]), str(t / "o"), "--person", "x"],
+    ("convert: output exists", lambda t: [*CONVERT, str(BASE[0]), str(t)], ["exists", "--overwrite"]),
+    ("convert: bad --person", lambda t: [*CONVERT, str(BASE[0]), str(t / "o"), "--person", "x"],
      ["--person", "invalid choice: 'x'", "mocap convert --help"]),
-    ("convert: unknown option", lambda t: ["convert", str(BASE[0]), str(t / "o"), "--fsp", "3"],
+    ("convert: unknown option", lambda t: [*CONVERT, str(BASE[0]), str(t / "o"), "--fsp", "3"],
      ["unrecognized arguments: --fsp"]),
-    ("convert: no calibration", lambda t: ["convert", str(without(t, "Calib.toml")), str(t / "o")],
+    ("convert: no calibration", lambda t: [*CONVERT, str(without(t, "Calib.toml")), str(t / "o")],
      ["no calibration (*.toml)"]),
-    ("convert: a bad gt.npz", lambda t: ["convert", str(edit_gt(t, gt_del("joint_names"))), str(t / "o")],
+    ("convert: a bad gt.npz", lambda t: [*CONVERT, str(edit_gt(t, gt_del("joint_names"))), str(t / "o")],
      ["gt.npz", "missing field 'joint_names'"]),
-    ("gt-from-joints on a Pose2Sim folder", lambda t: ["gt-from-joints", str(t), str(BASE[0])],
+    ("gt-from-joints on a Pose2Sim folder",
+     lambda t: ["gt-from-joints", str(t), str(BASE[0]), "--skeleton", "none"],
      ["has no sequence.json", "Pose2Sim folder", "mocap convert"]),
 ]
 
@@ -220,7 +222,7 @@ def test_debug_shows_the_traceback(tmp_path):
     """--debug, in a subprocess: the traceback as a user sees it (without --debug the same
     input is the one line of the catalogue's "layout of another size")."""
     env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"} | {"OPENBLAS_NUM_THREADS": "1"}
-    args = ["--debug", "convert", str(BASE[0]), str(tmp_path / "o"), "--layout", "COCO"]
+    args = ["--debug", *CONVERT, str(BASE[0]), str(tmp_path / "o"), "--layout", "COCO"]
     loud = subprocess.run([sys.executable, "-m", "mocap_cli", *args], capture_output=True, text=True,
                           env=env, timeout=300)
     assert loud.returncode != 0 and "Traceback" in loud.stderr and "OpenPoseFormatError" in loud.stderr

@@ -53,7 +53,7 @@ def test_the_crowd_is_tracked_person_by_person(tmp_path):
 
 @pytest.mark.slow           # ~10 s each on a loaded machine: Hydra in a subprocess
 @pytest.mark.parametrize(("overrides", "message"), [
-    (["data=crowd"], "has no ground-truth pose chi: use init.mode=tracker"),
+    (["data=crowd", "init.mode=gt_noise"], "has no ground-truth pose chi: use init.mode=tracker"),
     (["data=walk_markers_small", "init.mode=tracker"], "has no skeleton grouping (Detections.person)"),
     (["data=crowd", "init.mode=tracker", "tracker.people.confirm_frames=0"],
      "setting people.confirm_frames = 0 is out of range"),

@@ -18,16 +18,43 @@ NAMES = ["mid_hip", "neck_base", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder
          "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle", "head_centre"]
 
 
+#: the largest difference from the saved fit over the pinned numeric paths of scripts/numeric_spread.py
+#: (OpenBLAS Haswell and Prescott kernels; numpy, numba and OpenCV paths give the host's numbers):
+#: shape alpha, the fitted points where the ground truth is valid (mm), raw MPJPE (mm). Neither the
+#: angles nor the unobserved joints are compared: in frames 2-3 the left wrist is missing and the
+#: left arm's twist is free (on OpenBLAS's Haswell kernels it lands 1.2 rad away, the wrist 0.26 m).
+ORACLE_SPREAD = {"alpha": 2.4e-4, "observed_mm": 1.0e-3, "raw_mm": 1.9e-6}
+
+
+def observed_difference_mm(body, alpha, chi, ref) -> float:
+    """The largest distance (mm) between the fitted points of (alpha, chi) and of the saved fit
+    ``ref``, over the frames and points where its ground truth is valid."""
+    from mocap.body.catalogue import CATALOGUE
+    from mocap.eval.mismatch import _match
+
+    m = _match([str(n) for n in ref["names"]], ref["gt"], ref["valid"],
+               list(dict.fromkeys([*body.joint_names, *CATALOGUE])), "humaneva15")    # as fit_oracle
+    fn = PointFunction(body, m.ours)
+    ours, saved = fn(alpha, np.asarray(chi)), fn(ref["alpha"], ref["chi"])
+    return float(1000 * np.linalg.norm(ours - saved, axis=-1)[m.valid.astype(bool)].max())
+
+
 @pytest.mark.slow
+@pytest.mark.golden
 def test_oracle_unchanged_by_the_refactor(body):
     """fit_oracle's inputs and results saved by the code before its core moved to
-    mocap.clips.fit (commit 100a7c6's mismatch.py): bit-identical now."""
+    mocap.clips.fit (commit 100a7c6's mismatch.py): the same within 10x the cross-CPU spread
+    (tests/trackers/test_tracks_unchanged.py says how it is measured; bit-identical on the machine
+    that saved them)."""
+    from tests.trackers.test_tracks_unchanged import FLOOR_MM
+
     ref = np.load(DATA / "oracle_before_refactor.npz")
     fit = fit_oracle(body, [str(n) for n in ref["names"]], ref["gt"], ref["valid"], "humaneva15",
                      shape_frames=4)
-    np.testing.assert_array_equal(fit.alpha, ref["alpha"])
-    np.testing.assert_array_equal(fit.chi, ref["chi"])
-    assert fit.metrics["raw_mm"] == float(ref["raw_mm"])
+    np.testing.assert_allclose(fit.alpha, ref["alpha"], rtol=0, atol=10 * ORACLE_SPREAD["alpha"])
+    observed = observed_difference_mm(body, fit.alpha, fit.chi, ref)
+    assert observed <= max(10 * ORACLE_SPREAD["observed_mm"], FLOOR_MM)
+    assert abs(fit.metrics["raw_mm"] - float(ref["raw_mm"])) <= 10 * ORACLE_SPREAD["raw_mm"]
 
 
 def test_analytic_jacobian_matches_finite_differences(body):

@@ -109,7 +109,7 @@ def test_convert_keeps_the_person_grouping_and_gt_from_joints_works_on_it(two_pe
     jdir = tmp_path / "joints"
     jdir.mkdir()
     np.savez(jdir / "joints.npz", joint_names=np.array(gt.joint_names), joints=joints[:, 1])
-    assert main(["gt-from-joints", str(jdir), str(out), "--overwrite"]) == 0
+    assert main(["gt-from-joints", str(jdir), str(out), "--skeleton", "none", "--overwrite"]) == 0
     again = load_sequence(out)
     assert again.gt.person_names == () and np.allclose(again.gt.joints, joints[:, 1])
     # data=folder with data.gt=PATH uses that file instead of the folder's
@@ -120,7 +120,7 @@ def test_convert_keeps_the_person_grouping_and_gt_from_joints_works_on_it(two_pe
 def test_a_gt_npz_not_listed_in_sequence_json_is_used(two_people, tmp_path):
     root, joints, gt = two_people
     out = tmp_path / "seq"
-    assert main(["convert", str(root), str(out), "--gt", str(root / "gt.npz")]) == 0
+    assert main(["convert", "--fps", "30", str(root), str(out), "--gt", str(root / "gt.npz")]) == 0
     info = json.loads((out / "sequence.json").read_text())
     info["content"]["gt"] = False
     (out / "sequence.json").write_text(json.dumps(info))
@@ -132,7 +132,7 @@ def test_a_gt_npz_not_listed_in_sequence_json_is_used(two_people, tmp_path):
 def test_convert_subject_mode_keeps_one_person_per_view(two_people, tmp_path):
     root, _, _ = two_people
     out = tmp_path / "subject"
-    assert main(["convert", str(root), str(out), "--person", "subject", "--frames", "2"]) == 0
+    assert main(["convert", "--fps", "30", str(root), str(out), "--person", "subject", "--frames", "2"]) == 0
     seq = load_sequence(out)
     det = seq.detections
     assert seq.meta["person"] == "subject" and seq.num_frames == 2
@@ -154,7 +154,7 @@ def test_write_and_load_keep_the_person_column(two_people, tmp_path):
 def test_old_detections_without_person_still_load(two_people, tmp_path):
     root, _, _ = two_people
     out = tmp_path / "seq"
-    assert main(["convert", str(root), str(out)]) == 0
+    assert main(["convert", "--fps", "30", str(root), str(out)]) == 0
     d = json.loads((out / "detections.json").read_text())
     d["columns"] = d["columns"][:6]
     d["rows"] = [r[:6] for r in d["rows"]]
@@ -206,7 +206,7 @@ def test_trailing_frames_without_anyone_are_kept(two_people, tmp_path):
     seq = load_openpose_sequence(src, layout="auto", person="all")
     assert seq.num_frames == FRAMES and int(seq.detections.frame.max()) == FRAMES - 2
     out = tmp_path / "seq"
-    assert main(["convert", str(src), str(out)]) == 0
+    assert main(["convert", "--fps", "30", str(src), str(out)]) == 0
     assert load_sequence(out).num_frames == FRAMES
     run = tmp_path / "run"
     assert main(["track", *FAST, f"data.path={src}", f"hydra.run.dir={run}"]) == 0
