@@ -3,7 +3,7 @@ preset's differences applied) and the function that builds the tracker from it.
 
 ``conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
 differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``, ``apf_prior_real``
-``apf_prior``; ``hybrid_prior`` composes ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``,
+``apf_prior``; ``hybrid_prior`` and ``hybrid_100x15`` compose ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``,
 ``hybrid_kp`` ``hybrid``);
 ``tests/trackers/test_settings.py`` checks that both give the same settings.
 """
@@ -38,6 +38,9 @@ _APF_PRIOR = replace(_APF_25X10, energy=replace(_APF_25X10.energy, prior=1.0))
 _HYBRID_APF = HybridSettings().apf
 _HYBRID_PRIOR = replace(HybridSettings(),
                         apf=replace(_HYBRID_APF, energy=replace(_HYBRID_APF.energy, prior=1.0)))
+#: the hybrid whose limb-repair APF has the unconstrained budget of Zhang et al.'s Fig. 9 (100 x 15,
+#: no prior): the control of the paper's claim in its own setting (docs/results/recovery.md)
+_HYBRID_100X15 = replace(HybridSettings(), apf=replace(_HYBRID_APF, particles=100, layers=15))
 
 
 #: the two-cue hybrid's keypoint weight (one keypoint correspondence against one contour
@@ -68,6 +71,7 @@ PRESETS: dict[str, Preset] = {
     "local": Preset(factory.build_local_tracker, LocalSettings()),
     "hybrid": Preset(factory.build_hybrid_tracker, HybridSettings()),
     "hybrid_prior": Preset(factory.build_hybrid_tracker, _HYBRID_PRIOR),
+    "hybrid_100x15": Preset(factory.build_hybrid_tracker, _HYBRID_100X15),
     "hybrid_prior_real": Preset(factory.build_hybrid_tracker,
                                 replace(_HYBRID_PRIOR, apf=replace(_HYBRID_PRIOR.apf,
                                                                    prior=_real(_HYBRID_PRIOR.apf.prior)))),

@@ -21,7 +21,7 @@ FAST = {"apf": {"particles": 6, "layers": 2}, "apf_prior": {"particles": 6, "lay
         "apf_prior_real": {"particles": 6, "layers": 2},
         "apf_25x10": {"particles": 6, "layers": 2}, "local": {"iterations": 2},
         **{h: {"local": {"iterations": 2}, "apf": {"particles": 6, "layers": 2}}
-           for h in ("hybrid", "hybrid_prior", "hybrid_prior_real", "hybrid_kp")},
+           for h in PRESETS if h.startswith("hybrid")},
         "marker_apf": {"particles": 8, "layers": 2},
         "marker_people": {"particles": 8, "layers": 2, "init": {"particles": 30, "passes": 1, "layers": 3}}}
 #: trackers of several people: compared on a scene of people (test_marker_people_config_equals_python_api)

@@ -132,8 +132,7 @@ def test_every_key_is_overridable_without_plus(name, body, rig):
                             "tracker.offsets.frames=2"],
              "marker_people": ["tracker.layers=3", "tracker.init.particles=50",
                                "tracker.people.confirm_frames=5", "tracker.people.radius=0.4"]}
-    family = {"apf_prior": "apf", "apf_prior_real": "apf", "apf_25x10": "apf",
-              "hybrid_prior": "hybrid", "hybrid_prior_real": "hybrid", "hybrid_kp": "hybrid"}.get(name, name)
+    family = next((f for f in ("apf", "hybrid") if name.startswith(f)), name)     # presets of one class
     cfg = compose_tracker(name, picks[family])
     settings = build(cfg, body, rig).tracker_settings
     for override in picks[family]:
