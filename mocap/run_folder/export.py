@@ -7,10 +7,7 @@ import os
 from pathlib import Path
 
 from mocap.export import FORMATS
-from mocap.export.motion import load_motion, model_hash
 from mocap.run_folder.manifest import require_complete
-from mocap.run_folder.read import run_body as body_of
-from mocap.run_folder.read import run_config
 
 
 def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
@@ -49,6 +46,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
         raise ValueError(f"output {out} is a folder, not a {FORMATS[fmt]} file")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
+    from mocap.export.motion import load_motion  # (numpy: after the checks)
+
     if person is None:
         motion = load_motion(run_dir / "motion.npz")
     else:
@@ -78,6 +77,10 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
 def motion_body(run_dir: Path, motion=None):
     """The body model a run used, from the configuration its ``metrics.json`` stores
     (:func:`mocap.run_folder.read.run_body`); checked against the motion's model hash."""
+    from mocap.export.motion import model_hash
+    from mocap.run_folder.read import run_body as body_of
+    from mocap.run_folder.read import run_config
+
     try:
         config = run_config(run_dir)
     except FileNotFoundError as exc:

@@ -2,10 +2,10 @@
 preset's differences applied) and the function that builds the tracker from it.
 
 ``conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
-differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``, ``apf_prior_real``
-``apf_prior``; ``hybrid_prior`` and ``hybrid_100x15`` compose ``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``,
-``hybrid_kp`` ``hybrid``);
-``tests/trackers/test_settings.py`` checks that both give the same settings.
+differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``,
+``apf_prior_real`` ``apf_prior``; ``hybrid_prior``, ``hybrid_100x15`` and ``hybrid_kp`` compose
+``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``); ``tests/trackers/test_settings.py`` checks
+that both give the same settings.
 """
 
 from __future__ import annotations

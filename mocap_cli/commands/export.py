@@ -16,7 +16,6 @@ import time
 from pathlib import Path
 
 from mocap.export import FORMATS
-from mocap.run_folder.export import export_run
 from mocap_cli.errors import ArgumentParser
 
 
@@ -37,6 +36,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--accept-unverified", action="store_true",
                    help="export a run folder without a valid manifest.json (written before manifests)")
     args = p.parse_args(argv)
+    from mocap.run_folder.export import export_run  # (the numeric stack: after the arguments)
+
     t = time.perf_counter()
     if args.accept_unverified:
         from mocap.run_folder.manifest import manifest_problem

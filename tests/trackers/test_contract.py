@@ -15,7 +15,7 @@ from mocap.run_folder.settings import RunSettings
 from mocap.trackers.contract import Needs, OnePerson
 from mocap.trackers.run import run_start
 
-TRACKING_YAML = Path(__file__).resolve().parents[2] / "mocap_cli" / "conf" / "tracking.yaml"
+TRACKING_YAML = Path(__file__).resolve().parents[2] / "conf" / "tracking.yaml"
 
 
 def test_births_and_ends_are_the_first_frame_in_and_the_first_frame_out():
@@ -35,6 +35,7 @@ def test_run_settings_take_the_defaults_the_tracking_config_documents():
     assert (d.init.mode, d.init.noise_deg, d.init.noise_translation, d.init.cache) == tuple(
         cfg["init"][k] for k in ("mode", "noise_deg", "noise_translation", "cache"))
     assert d.motion.vertices == cfg["motion"]["vertices"]
+    assert (d.oracle.enabled, d.oracle.cache) == (cfg["oracle"]["enabled"], cfg["oracle"]["cache"])
     assert RunSettings.from_config({"frames": "all", "seed": 2}).frames is None
 
 
