@@ -125,7 +125,11 @@ def parallel_jobs() -> int:
 
 def build(node, **kwargs):
     """Instantiate a config node (``_target_`` + arguments); objects go in through a partial,
-    since Hydra would turn dataclass arguments into configs."""
+    since Hydra would turn dataclass arguments into configs. Every ``_target_`` in it must be a
+    registered builder (:data:`mocap.presets.TARGETS`), as for a config read from a file."""
+    from mocap import presets
+
+    presets.check_targets(OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node)
     return instantiate(node, _partial_=True)(**kwargs) if kwargs else instantiate(node)
 
 

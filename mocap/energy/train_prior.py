@@ -171,7 +171,7 @@ def retargeted_chi(entry: ClipEntry, body: BodyModel, cache_dir: str | Path | No
     cache = None if cache_dir is None else (
         Path(cache_dir) / f"{body.name}{key}-{entry.sha256[:16]}-{version}-s{step}.npz")
     if cache is not None and cache.is_file():
-        with np.load(cache) as z:
+        with np.load(cache, allow_pickle=False) as z:
             return z["chi"]
     chi = np.asarray(fn(entry.path, body), np.float64)
     if chi.ndim != 2 or chi.shape[1] != body.num_dofs:

@@ -22,6 +22,7 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
     is the format's) before any work."""
     from mocap.export.motion import load_motion
     from mocap.run_folder.manifest import require_complete
+    from mocap.safe_files import temporary_beside
 
     if fmt not in FORMATS:
         raise ValueError(f"unknown export format {fmt!r} (known: {', '.join(FORMATS)})")
@@ -42,9 +43,13 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
         raise ValueError(f"output {out} is a folder, not a {FORMATS[fmt]} file")
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
+    if fmt == "gltf" and body is None:      # the stored config is checked before anything is read
+        from mocap.run_folder.read import run_config
+        run_config(run_dir)
     motion = load_motion(run_dir / "motion.npz")
-    tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
-    try:
+    if fmt == "gltf" and body is None:      # the run's body, from its config: refused before any write
+        body = run_body(run_dir, motion)
+    with temporary_beside(out, suffix=f".tmp{out.suffix}") as tmp:
         if fmt == "bvh":
             from mocap.export.bvh import write_bvh
             write_bvh(motion, tmp)
@@ -56,10 +61,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
             write_c3d(motion, tmp, which=markers)
         else:
             from mocap.export.gltf import write_gltf
-            write_gltf(motion, tmp, body if body is not None else run_body(run_dir, motion))
+            write_gltf(motion, tmp, body)
         os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
     return out
 
 
@@ -74,7 +77,7 @@ def run_body(run_dir: Path, motion=None):
         config = run_config(run_dir)
     except FileNotFoundError as exc:
         raise FileNotFoundError(f"{exc}; the glTF export needs the run's body model") from None
-    body = body_of(config)
+    body = body_of(config, where=str(Path(run_dir) / "metrics.json"))
     want = (motion.info.get("model_hash") if motion is not None else None)
     if want and model_hash(body) != want:
         raise ValueError(f"{run_dir}: the body model in its config (hash {model_hash(body)}) is not the "

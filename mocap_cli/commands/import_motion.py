@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     written = import_motion(args.clip, out, body, unit=args.unit, up=args.up, frames=args.frames,
                             name_map=args.name_map, step=args.step, fps=args.fps,
                             overwrite=args.overwrite, match=args.match)
-    with np.load(written) as z:
+    with np.load(written, allow_pickle=False) as z:
         res = z["retarget_residual_mm"]
     print(f"{args.clip.name} -> {written}: {res.shape[0]} frames on {args.body}, residual median "
           f"{np.nanmedian(res):.1f} mm, worst {np.nanmax(res):.1f} mm")

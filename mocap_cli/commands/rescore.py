@@ -47,8 +47,9 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
     metrics = json.loads((run / "metrics.json").read_text())
     if "config" not in metrics:
         raise ValueError(f"{run}: metrics.json holds no config (not a mocap track run)")
-    body = run_body(metrics["config"])
-    seq = run_sequence(metrics["config"], body)
+    where = str(run / "metrics.json")
+    body = run_body(metrics["config"], where=where)
+    seq = run_sequence(metrics["config"], body, where=where)
     if seq.gt is None:
         raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
     motion = load_motion(run)
