@@ -129,7 +129,8 @@ def build(node, **kwargs):
     registered builder (:data:`mocap.presets.TARGETS`), as for a config read from a file."""
     from mocap import presets
 
-    presets.check_targets(OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node)
+    plain_node = OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+    presets.check_targets(plain_node)
     return instantiate(node, _partial_=True)(**kwargs) if kwargs else instantiate(node)
 
 

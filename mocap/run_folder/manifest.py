@@ -45,7 +45,10 @@ def sha256(path: Path) -> str:
 
 def write_manifest(run_dir: str | Path, files: list[str], overrides: list[str] | None = None) -> dict:
     """Checksum ``files`` of ``run_dir`` and write manifest.json (atomically, last)."""
+    from mocap.run_folder.lock import require_held
+
     run_dir = Path(run_dir)
+    require_held(run_dir)           # only the process holding the folder's lock seals it
     for name in files:
         check_name(name, "result file", run_dir / MANIFEST)
     manifest = {"format": FORMAT,

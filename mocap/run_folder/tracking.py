@@ -55,7 +55,7 @@ from mocap.eval.run_metrics import run_metrics
 from mocap.export.motion import motion_arrays, write_motion
 from mocap.recording.factory import make_sink, recording_settings
 from mocap.recording.sink import RunInfo
-from mocap.run_folder.attempt import run_attempt, seal_run
+from mocap.run_folder.attempt import own_run_folder, run_attempt, seal_run
 from mocap.run_folder.manifest import manifest_problem
 from mocap.threads import resolve_threads
 from mocap.trackers.base import Tracker
@@ -136,7 +136,7 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
     are still the given tracker's). extra(metrics, result, body, seq): more metrics.
     overrides: the command line's overrides, kept in the manifest (the labels of the run).
     """
-    with _sigterm_as_interrupt():
+    with _sigterm_as_interrupt(), own_run_folder(out_dir):       # one writer per folder (issue 36)
         return _run(Path(out_dir), dict(config), make_body, make_sequence, make_tracker, parallel_jobs,
                     source, wrap, extra, overrides)
 

@@ -15,6 +15,7 @@ speed, effort and initialisation figures are kept. The figures it replaces are k
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import subprocess
 import sys
@@ -23,6 +24,7 @@ from pathlib import Path
 from mocap.eval.run_metrics import accuracy_metrics
 from mocap.export.motion import load_motion
 from mocap.run_folder import run_body, run_sequence, write_json
+from mocap.run_folder.lock import RunFolderBusy, run_lock
 from mocap.run_folder.manifest import PREVIOUS, read_manifest, require_complete, write_manifest
 from mocap_cli import source_checkout
 from mocap_cli.errors import ArgumentParser
@@ -87,8 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     failed = 0
     for i, run in enumerate(runs, 1):
         try:
-            old, new = rescore(run, version, args.dry_run)
-        except (ValueError, FileNotFoundError) as exc:
+            with contextlib.nullcontext() if args.dry_run else run_lock(run):     # one writer per folder
+                old, new = rescore(run, version, args.dry_run)
+        except (ValueError, FileNotFoundError, RunFolderBusy) as exc:
             print(f"[{i}/{len(runs)}] {run}: skipped: {exc}", file=sys.stderr)
             failed += 1
             continue

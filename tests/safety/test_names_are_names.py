@@ -19,7 +19,7 @@ from mocap_cli.main import main
 from tests.safety.helpers import tree
 
 BAD_NAMES = ["../x", "../../x", "../../../x", "/tmp/x", "a/b", "a\\b", "..", ".", ".hidden", "",
-             "x" * 200, "nul\0byte", "cam 1 ", "a:b", "a\nb"]
+             "x" * 200, "nul\0byte", "cam 1 ", "a:b", "a\nb", '"quoted"', "a*b", "$HOME"]
 GOOD_NAMES = ["cam_00", "int_cam01_img", "Camera-2", "cam 1", "c.3", "view(4)", "a+b@c=d", "x" * 128,
               "kamera_ü", "-"]
 
