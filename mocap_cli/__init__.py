@@ -4,10 +4,16 @@ Only this package imports Hydra; :mod:`mocap` (the library) never does. The conf
 package data in ``mocap_cli/conf`` (:data:`CONF_DIR`).
 """
 
-import os
-from pathlib import Path
+# Ctrl-C is honoured from the first moment (mocap_cli/interrupt.py): before anything heavy is imported
+from mocap_cli import interrupt as _interrupt  # noqa: I001 (first, on purpose)
 
-from omegaconf import OmegaConf
+if _interrupt.is_program():
+    _interrupt.install()
+
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from omegaconf import OmegaConf  # noqa: E402
 
 #: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...)
 CONF_DIR = Path(__file__).resolve().parent / "conf"

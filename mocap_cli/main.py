@@ -15,6 +15,7 @@ import importlib
 import os
 import sys
 
+from mocap_cli import interrupt  # (installed by mocap_cli/__init__.py, before any heavy import)
 from mocap_cli.errors import user_error_message
 
 #: command -> (module under mocap_cli.commands, one line of help)
@@ -52,6 +53,7 @@ def run(command: str, argv: list[str]) -> int:
     if command not in COMMANDS:
         raise ValueError(f"unknown command {command!r} (commands: {', '.join(COMMANDS)})")
     module = importlib.import_module(f"mocap_cli.commands.{COMMANDS[command][0]}")
+    interrupt.check()           # a Ctrl-C swallowed by a library while it was imported
     return int(module.main(argv) or 0)
 
 
@@ -72,14 +74,33 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mocap: error: unknown command {command!r} (commands: {', '.join(COMMANDS)}; "
               "mocap --help)", file=sys.stderr)
         return 2
+    interrupt.set_command(f"mocap {command}")
     try:
-        return run(command, rest)
+        code = run(command, rest)
+        interrupt.check()
+        return code
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        return _leave(f"mocap {command}: interrupted (Ctrl-C)", interrupt.EXIT_CODE)
     except Exception as exc:
         message = None if debug else user_error_message(exc)
+        if message is None and isinstance(exc, OSError) and not debug:
+            return _leave(f"mocap {command}: error: {exc}", 1)       # disk full, a failing write: one line
         if message is None:
             raise
-        print(f"mocap {command}: error: {message}", file=sys.stderr)
-        return 2
+        return _leave(f"mocap {command}: error: {message}", 2)
+
+
+def _leave(line: str, code: int) -> int:
+    """Print ``line`` and return ``code``; a process that gave up on a blocked recording writer
+    leaves at once (its clean-up would wait on that writer)."""
+    print(" ".join(line.split("\n")), file=sys.stderr, flush=True)
+    sink = sys.modules.get("mocap.recording.rerun_sink")       # (never imported here for this)
+    if sink is not None and sink.ABANDONED:
+        sys.stdout.flush()
+        os._exit(code)
+    return code
 
 
 if __name__ == "__main__":
