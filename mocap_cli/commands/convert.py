@@ -37,6 +37,9 @@ def main(argv: list[str] | None = None) -> int:
                                               "folder's gt.npz, when there is one)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
     args = p.parse_args(argv)
+    from mocap.checks import check_fps
+
+    check_fps(args.fps, "--fps")                    # before anything is read or written
     out = convert_pose2sim(args.recording, args.out, person=args.person, overwrite=args.overwrite,
                            layout=args.layout, fps=args.fps, frames=args.frames,
                            min_confidence=args.min_confidence, calibration=args.calibration,

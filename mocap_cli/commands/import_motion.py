@@ -49,6 +49,10 @@ def main(argv: list[str] | None = None) -> int:
         raise FileNotFoundError(f"{args.clip}: no such BVH file")
     if args.step < 1:
         raise ValueError(f"--step {args.step}: a positive integer")
+    if args.fps is not None:
+        from mocap.checks import check_fps
+
+        check_fps(args.fps, "--fps")
     out = args.out / "motion.npz" if args.out.is_dir() or not args.out.suffix else args.out
     if out.exists() and not args.overwrite:
         raise FileExistsError(f"{out} exists (--overwrite to replace it)")
