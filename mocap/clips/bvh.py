@@ -312,6 +312,8 @@ def read_bvh(path: str | Path, *, unit: str | None = None, up: str | None = None
                               "name map to mocap/clips/maps/ (see docs/clips.md)")
     scale = UNITS[unit] if unit is not None else name_map.metres_per_unit
     up = up if up is not None else name_map.up
+    if len(h.motion) != h.frames:           # before anything is sized by the Frames: line
+        _frame_values(path, h, 0, np.arange(0))
     sel = _frame_selection(path, h.frames, frames)
     width = sum(len(c) for c in h.channels)
     values = _frame_values(path, h, width, sel)
