@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         if debug:
             raise
-        return _leave(f"mocap {command}: interrupted (Ctrl-C)", interrupt.EXIT_CODE)
+        return _leave(f"mocap {command}: interrupted (Ctrl-C)", interrupt.EXIT_CODE, now=argv is None)
     except Exception as exc:
         message = None if debug else user_error_message(exc)
         if message is None and isinstance(exc, OSError) and not debug:
@@ -92,12 +92,17 @@ def main(argv: list[str] | None = None) -> int:
         return _leave(f"mocap {command}: error: {message}", 2)
 
 
-def _leave(line: str, code: int) -> int:
+def _leave(line: str, code: int, now: bool = False) -> int:
     """Print ``line`` and return ``code``; a process that gave up on a blocked recording writer
-    leaves at once (its clean-up would wait on that writer)."""
+    leaves at once (its clean-up would wait on that writer), and so does an interrupted ``mocap``
+    process (``now``: its run already cleaned up; the interpreter's own exit could report the
+    interrupt again as death by SIGINT instead of the code)."""
     print(" ".join(line.split("\n")), file=sys.stderr, flush=True)
     sink = sys.modules.get("mocap.recording.rerun_sink")       # (never imported here for this)
-    if sink is not None and sink.ABANDONED:
+    if now or (sink is not None and sink.ABANDONED):
+        import logging
+
+        logging.shutdown()
         sys.stdout.flush()
         os._exit(code)
     return code
