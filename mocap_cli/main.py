@@ -82,24 +82,24 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         if debug:
             raise
-        return _leave(f"mocap {command}: interrupted (Ctrl-C)", interrupt.EXIT_CODE, now=argv is None)
+        return _leave(f"mocap {command}: interrupted (Ctrl-C)", interrupt.EXIT_CODE, argv is None, now=True)
     except Exception as exc:
         message = None if debug else user_error_message(exc)
         if message is None and isinstance(exc, OSError) and not debug:
-            return _leave(f"mocap {command}: error: {exc}", 1)       # disk full, a failing write: one line
+            return _leave(f"mocap {command}: error: {exc}", 1, argv is None)    # disk full, a failing write
         if message is None:
             raise
-        return _leave(f"mocap {command}: error: {message}", 2)
+        return _leave(f"mocap {command}: error: {message}", 2, argv is None)
 
 
-def _leave(line: str, code: int, now: bool = False) -> int:
-    """Print ``line`` and return ``code``; a process that gave up on a blocked recording writer
-    leaves at once (its clean-up would wait on that writer), and so does an interrupted ``mocap``
-    process (``now``: its run already cleaned up; the interpreter's own exit could report the
-    interrupt again as death by SIGINT instead of the code)."""
+def _leave(line: str, code: int, program: bool, now: bool = False) -> int:
+    """Print ``line`` and return ``code``. When ``mocap`` is the program (``program``: not called
+    in-process), a process that gave up on a blocked recording writer leaves at once (its clean-up
+    would wait on that writer), and so does an interrupted one (``now``: its run already cleaned
+    up; the interpreter's own exit could report the interrupt again as death by SIGINT)."""
     print(" ".join(line.split("\n")), file=sys.stderr, flush=True)
     sink = sys.modules.get("mocap.recording.rerun_sink")       # (never imported here for this)
-    if now or (sink is not None and sink.ABANDONED):
+    if program and (now or (sink is not None and sink.ABANDONED)):
         import logging
 
         logging.shutdown()

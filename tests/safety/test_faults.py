@@ -48,7 +48,8 @@ if how == "enospc_metrics":
         raise OSError(errno.ENOSPC, "No space left on device", str(path))
     attempt.write_json = write_json
 from mocap_cli.main import main
-sys.exit(main(sys.argv[2:]))
+sys.argv = ["mocap", *sys.argv[2:]]
+sys.exit(main())                                    # as the program (not in-process)
 """
 
 
