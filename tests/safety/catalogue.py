@@ -36,6 +36,8 @@ from tests.safety.helpers import tree
 
 #: the longest a case may take before it counts as a hang
 HANG_S = 20.0
+#: an absolute camera name of the path cases; what it would reach is checked too (and removed)
+ABS_NAME = "/tmp/mocap_catalogue_abs"
 #: what a case returns where it cannot be made here (e.g. a read-only folder for root)
 NOT_APPLICABLE = "not applicable for this user"
 #: exceptions that are a program's, not a refusal of the input
@@ -95,6 +97,8 @@ def classify(case: Case, tmp: Path) -> tuple[str, str]:
 
     before = None
     if case.watch:
+        for p in (Path(ABS_NAME), Path(ABS_NAME + "_json")):
+            shutil.rmtree(p, ignore_errors=True)
         call = case.action(tmp)
         before = tree(tmp)
         case = Case(case.category, case.name, lambda _tmp: call(), case.words, case.expect, case.watch)
@@ -104,6 +108,11 @@ def classify(case: Case, tmp: Path) -> tuple[str, str]:
     if t.is_alive():
         return "silent", f"hung for more than {HANG_S:g} s"
     if case.watch:
+        reached = [p for p in (Path(ABS_NAME), Path(ABS_NAME + "_json")) if p.exists()]
+        for p in reached:
+            shutil.rmtree(p, ignore_errors=True)
+        if reached:
+            return "silent", f"wrote outside its output: {[str(p) for p in reached]}"
         after = tree(tmp)
         changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k)
                          and not k.startswith("out"))
@@ -586,7 +595,7 @@ def cases() -> list[Case]:
             add(Case("security", f"{command}: {what}", security_case(what, command),
                      ("metrics.json", "refused"), watch=True))
     # security: paths from names (detect, convert, write_sequence)
-    for bad in ("../x", "../../x", "/tmp/mocap_catalogue_abs"):
+    for bad in ("../x", "../../x", ABS_NAME):
         add(Case("detect", f"detect camera {bad!r}", detect_case(["cam_a", bad, "cam_c"]),
                  ("calib.toml", "camera name"), watch=True))
         add(Case("import", f"convert camera {bad!r}", convert_case(["cam_a", bad, "cam_c"]),
