@@ -166,8 +166,10 @@ def _count_files(folder: Path, kind: str, views: list[str], frames: int, meta_pa
                                       f"{meta_path} lists {kind} in field 'content')")
         n = sum(1 for p in d.iterdir() if p.suffix == ".png")
         if n < frames:
-            raise SequenceFormatError(f"{meta_path}: field 'frames' says {frames}, but {d} holds {n} "
-                                      "frame files")
+            f = next(f for f in range(n + 1) if not (d / _frame_name(f)).is_file())
+            raise SequenceFormatError(f"{d / _frame_name(f)}: missing frame file ({kind}, view {view!r}, "
+                                      f"frame {f}; {meta_path.name} field 'frames' says {frames}, the "
+                                      f"folder holds {n})")
 
 
 def _read_images(folder: Path, kind: str, views: list[str], frames: int, w: int, h: int,
@@ -230,16 +232,16 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
     name = info.get("name", folder.name)
     _field(lambda f: check_type(name, f, str, "a string"), meta_path, "name")
     _field(lambda f: check_type(info.get("meta", {}), f, dict, "a mapping"), meta_path, "meta")
+    rig = load_calibration(folder / "calibration.json")
+    if list(rig.names) != views:
+        raise SequenceFormatError(f"{folder / 'calibration.json'}: cameras {list(rig.names)} do not "
+                                  f"match field 'views' of sequence.json {views}")
     for kind in ("masks", "images"):
         if content.get(kind) and (kind == "masks" or images):
             _count_files(folder, kind, views, frames, meta_path)
     if not content.get("masks") and not (content.get("images") and images) and frames > MAX_KEYPOINT_FRAMES:
         raise SequenceFormatError(f"{meta_path}: field 'frames' = {frames} is more than a keypoint folder "
                                   f"holds (at most {MAX_KEYPOINT_FRAMES})")
-    rig = load_calibration(folder / "calibration.json")
-    if list(rig.names) != views:
-        raise SequenceFormatError(f"{folder / 'calibration.json'}: cameras {list(rig.names)} do not "
-                                  f"match field 'views' of sequence.json {views}")
     for cam in rig:
         if (cam.width, cam.height) != (w, h):
             raise SequenceFormatError(f"{folder / 'calibration.json'}: camera {cam.name!r} is "
