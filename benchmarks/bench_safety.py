@@ -53,7 +53,8 @@ def ctrl_c(n: int) -> None:
     for i in range(n):
         stage = STAGES[i % len(STAGES)]
         run = Path(tempfile.mkdtemp()) / "run"
-        p = subprocess.Popen([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={run}", "tracker=apf",
+        p = subprocess.Popen([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={run}",
+                              "tracker=apf",
                               "data=walk_small", "data.frames=2", "recording.enabled=false"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=repo)
         while p.poll() is None:

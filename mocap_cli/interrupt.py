@@ -5,8 +5,10 @@ or any other library is imported), the handler ends the process at once (one lin
 130) until the command starts (:func:`set_command`); from then on it raises KeyboardInterrupt
 in the main thread, which runs the command's clean-up (a run folder is left visibly
 incomplete) and which :func:`mocap_cli.main.main` turns into the same line and code.
-Two things could still keep a run going: a library that catches BaseException around its own
-imports swallows the KeyboardInterrupt (:func:`check` re-raises it after the heavy imports),
+Two things could still keep a run going: an interrupt raised inside the import machinery can be
+dropped ("Exception ignored" in importlib's module-lock callback) or caught and printed by an
+extension's own import code, so during an import the handler only records it, and :func:`check`
+raises it after the command's module is imported and around every config build;
 and native code that never returns to Python (a watchdog thread started by the first signal
 ends the process :data:`GRACE_S` seconds later, with the same line). A second Ctrl-C ends it at
 once. Only a process that runs ``mocap`` as its program installs it (:func:`install`, not on
@@ -46,7 +48,20 @@ def _handler(signum, frame) -> None:
     timer = threading.Timer(GRACE_S, _exit_now)
     timer.daemon = True
     timer.start()
+    if _inside_import(frame):
+        return      # raised here it would be printed as "Exception ignored" and lost: check() raises it
     raise KeyboardInterrupt("interrupted")
+
+
+def _inside_import(frame) -> bool:
+    """Whether the main thread is inside the import machinery: there an exception can be dropped
+    ("Exception ignored" in importlib's module-lock callback) or caught and printed by an
+    extension module's own import code, and the run would go on."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def install() -> None:
