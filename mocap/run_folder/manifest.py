@@ -87,7 +87,7 @@ def manifest_problem(run_dir: str | Path) -> str | None:
         return why
     for name in manifest["files"]:
         if name_problem(name) is not None or not isinstance(manifest["files"][name], dict):
-            return f"{MANIFEST} lists {str(name)[:80]!r}, not a plain file name of the folder"
+            return f"{MANIFEST} lists {str(name)[:240]!r}, not a plain file name of the folder"
     if "metrics.json" not in manifest["files"]:
         return f"{MANIFEST} does not list metrics.json"
     for name in RESULTS:
