@@ -9,8 +9,14 @@ resolvers are registered by :func:`register_resolvers`, which the first use of :
 and :mod:`mocap_cli.hydra_edge` call.
 """
 
-import os
-from pathlib import Path
+# Ctrl-C is honoured from the first moment (mocap_cli/interrupt.py): before anything heavy is imported
+from mocap_cli import interrupt as _interrupt  # noqa: I001 (first, on purpose)
+
+if _interrupt.is_program():
+    _interrupt.install()
+
+import os  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 _HERE = Path(__file__).resolve().parent
 #: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...): the package data

@@ -197,8 +197,17 @@ def parallel_jobs() -> int:
 
 def build(node, **kwargs):
     """Instantiate a config node (``_target_`` + arguments); objects go in through a partial,
-    since Hydra would turn dataclass arguments into configs."""
-    return instantiate(node, _partial_=True)(**kwargs) if kwargs else instantiate(node)
+    since Hydra would turn dataclass arguments into configs. Every ``_target_`` in it must be a
+    registered builder (:data:`mocap.presets.TARGETS`), as for a config read from a file."""
+    from mocap import presets
+    from mocap_cli import interrupt
+
+    interrupt.check()           # a Ctrl-C swallowed by a library while it was imported
+    plain_node = OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
+    presets.check_targets(plain_node)
+    built = instantiate(node, _partial_=True)(**kwargs) if kwargs else instantiate(node)
+    interrupt.check()
+    return built
 
 
 def track_run(cfg: DictConfig, wrap=None, extra=None, check_sequence=None) -> dict | None:

@@ -15,6 +15,7 @@ import importlib
 import os
 import sys
 
+from mocap_cli import interrupt  # (installed by mocap_cli/__init__.py, before any heavy import)
 from mocap_cli.errors import user_error_message
 
 #: command -> (module under mocap_cli.commands, one line of help)
@@ -53,6 +54,7 @@ def run(command: str, argv: list[str]) -> int:
     if command not in COMMANDS:
         raise ValueError(f"unknown command {command!r} (commands: {', '.join(COMMANDS)})")
     module = importlib.import_module(f"mocap_cli.commands.{COMMANDS[command][0]}")
+    interrupt.check()           # a Ctrl-C swallowed by a library while it was imported
     return int(module.main(argv) or 0)
 
 
@@ -79,14 +81,38 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mocap: error: unknown command {command!r} (commands: {', '.join(COMMANDS)}; "
               "mocap --help)", file=sys.stderr)
         return 2
+    interrupt.set_command(f"mocap {command}")
     try:
-        return run(command, rest)
+        code = run(command, rest)
+        interrupt.check()
+        return code
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        return _leave(f"mocap {command}: interrupted (Ctrl-C)", interrupt.EXIT_CODE, argv is None, now=True)
     except Exception as exc:
         message = None if debug else user_error_message(exc)
+        if message is None and isinstance(exc, OSError) and not debug:
+            return _leave(f"mocap {command}: error: {exc}", 1, argv is None)    # disk full, a failing write
         if message is None:
             raise
-        print(f"mocap {command}: error: {message}", file=sys.stderr)
-        return 2
+        return _leave(f"mocap {command}: error: {message}", 2, argv is None)
+
+
+def _leave(line: str, code: int, program: bool, now: bool = False) -> int:
+    """Print ``line`` and return ``code``. When ``mocap`` is the program (``program``: not called
+    in-process), a process that gave up on a blocked recording writer leaves at once (its clean-up
+    would wait on that writer), and so does an interrupted one (``now``: its run already cleaned
+    up; the interpreter's own exit could report the interrupt again as death by SIGINT)."""
+    print(" ".join(line.split("\n")), file=sys.stderr, flush=True)
+    sink = sys.modules.get("mocap.recording.rerun_sink")       # (never imported here for this)
+    if program and (now or (sink is not None and sink.ABANDONED)):
+        import logging
+
+        logging.shutdown()
+        sys.stdout.flush()
+        os._exit(code)
+    return code
 
 
 if __name__ == "__main__":

@@ -61,6 +61,8 @@ from mocap.cameras.camera import (
     rodrigues_from_rotation,
     rotation_from_rodrigues,
 )
+from mocap.checks import MAX_IMAGE_SIDE
+from mocap.safe_files import name_problem
 
 PathLike = str | Path
 ImageSizes = Mapping[str, Sequence[int]] | Sequence[Sequence[int]]
@@ -107,6 +109,13 @@ def _check_rig(path: PathLike, cams: list[Camera], fields: Mapping[str, str],
         raise CalibrationError(path, "no cameras")
     seen: set[str] = set()
     for cam in cams:
+        problem = name_problem(cam.name)
+        if problem is not None:       # a camera's name becomes a file name (pose/<name>_json, masks/<name>)
+            raise CalibrationError(path, f"camera name {problem}; refused (camera names become file names)",
+                                   cam.name[:80], fields["name"])
+        if max(cam.width, cam.height) > MAX_IMAGE_SIDE:
+            raise CalibrationError(path, f"image size {cam.width}x{cam.height} is larger than any camera's "
+                                         f"(at most {MAX_IMAGE_SIDE} px a side)", cam.name, fields["width"])
         if cam.name in seen:
             raise CalibrationError(path, "duplicate camera name", cam.name, fields["name"])
         seen.add(cam.name)

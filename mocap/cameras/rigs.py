@@ -159,7 +159,7 @@ def rig_from_config(config: Mapping | str | Path) -> Rig:
     config = _plain(config)        # a mapping of the command line's configs (mocap_cli) to plain values
     if "calibration" in config and "_target_" not in config:
         return load_calibration(str(config["calibration"]), image_sizes=config.get("image_sizes"))
-    rig = presets.build(config)
+    rig = presets.build(config, kind="cameras", where="camera config")
     if not isinstance(rig, Rig):
         raise TypeError(f"camera config produced {type(rig).__name__}, expected Rig")
     return rig

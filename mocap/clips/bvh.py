@@ -192,7 +192,7 @@ def _parse(path: Path) -> _Hierarchy:
         frame_time = float(lines[1].split()[2])
     except (ValueError, IndexError):
         raise _fail(path, "malformed 'Frames:' or 'Frame Time:' line") from None
-    if frames < 0 or not frame_time > 0:
+    if frames < 0 or not 0 < frame_time < float("inf"):
         raise _fail(path, f"Frames: {frames}, Frame Time: {frame_time}: need Frames >= 0 and Frame Time > 0")
     return _Hierarchy(names, parents, np.asarray(offsets, np.float64).reshape(-1, 3), channels,
                       end_parents, np.asarray(end_offsets, np.float64).reshape(-1, 3), frames,
@@ -253,6 +253,22 @@ def _frame_values(path: Path, h: _Hierarchy, width: int, sel: np.ndarray) -> np.
         raise _fail(path, "a frame line holds a value that is not a number") from None
 
 
+def _refuse_nonfinite(path: Path, h: _Hierarchy, values: np.ndarray, sel: np.ndarray) -> None:
+    """NaN / Inf in an OFFSET or a frame's channel value: refused, naming the joint (and frame)."""
+    for offsets, names in ((h.offsets, h.names), (h.end_offsets, [f"End Site of {h.names[p]}"
+                                                                   for p in h.end_parents])):
+        bad = ~np.isfinite(offsets).all(axis=1)
+        if bad.any():
+            raise _fail(path, f"{names[int(np.flatnonzero(bad)[0])]!r}: OFFSET is not finite")
+    bad = ~np.isfinite(values)
+    if bad.any():
+        r, c = (int(v) for v in np.argwhere(bad)[0])
+        columns = [(name, ch) for name, chans in zip(h.names, h.channels, strict=True) for ch in chans]
+        joint, channel = columns[c]
+        raise _fail(path, f"frame {int(sel[r])}: joint {joint!r} channel {channel} is {values[r, c]} "
+                          f"({int(bad.any(axis=1).sum())} frame(s) hold NaN/Inf): refused")
+
+
 def _frame_selection(path: Path, total: int, frames: slice | None) -> np.ndarray:
     if frames is None:
         return np.arange(total)
@@ -296,9 +312,12 @@ def read_bvh(path: str | Path, *, unit: str | None = None, up: str | None = None
                               "name map to mocap/clips/maps/ (see docs/clips.md)")
     scale = UNITS[unit] if unit is not None else name_map.metres_per_unit
     up = up if up is not None else name_map.up
+    if len(h.motion) != h.frames:           # before anything is sized by the Frames: line
+        _frame_values(path, h, 0, np.arange(0))
     sel = _frame_selection(path, h.frames, frames)
     width = sum(len(c) for c in h.channels)
     values = _frame_values(path, h, width, sel)
+    _refuse_nonfinite(path, h, values, sel)
 
     F, J = len(sel), len(h.names)
     trans = np.broadcast_to(h.offsets, (F, J, 3)).copy()

@@ -199,7 +199,7 @@ def load_motion(path: str | Path, body: BodyModel) -> tuple[np.ndarray, float]:
         raise FileNotFoundError(f"motion file not found: {path}")
     fps = 25.0
     if path.suffix == ".npz":
-        with np.load(path) as z:
+        with np.load(path, allow_pickle=False) as z:
             for key in ("dof_names", "chi"):
                 if key not in z:
                     raise ValueError(f"{path}: missing field '{key}'")

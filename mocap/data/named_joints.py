@@ -40,7 +40,7 @@ def read_named_joints(folder: str | Path,
     names: list[str] = []
     for k, path in enumerate(files):
         if path.suffix == ".npz":
-            with np.load(path) as z:
+            with np.load(path, allow_pickle=False) as z:
                 if "joint_names" not in z or "joints" not in z:
                     raise ValueError(f"{path}: needs fields 'joint_names' and 'joints'")
                 jn = [str(n) for n in z["joint_names"]]

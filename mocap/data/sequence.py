@@ -118,7 +118,11 @@ class Sequence:
     frames: int | None = None
 
     def __post_init__(self) -> None:
+        from mocap.checks import MAX_FRAMES, check_fps, check_int
+
+        check_fps(self.fps, f"sequence {self.name!r}: fps")           # finite, > 0 (issue 36)
         if self.frames is not None:
+            check_int(self.frames, f"sequence {self.name!r}: frames", 0, MAX_FRAMES)
             held = [len(a) for a in (self.masks, self.images) if a is not None]
             if self.detections is not None and len(self.detections):
                 last = int(self.detections.frame.max()) + 1

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import json
 import shutil
-import uuid
+import tempfile
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -46,10 +46,14 @@ import cv2
 import numpy as np
 
 from mocap.cameras import load_calibration, save_calibration
+from mocap.checks import MAX_FRAMES, MAX_IMAGE_SIDE, BadValueError, check_fps, check_int, check_type
 from mocap.data.sequence import Detections, GroundTruth, Sequence
+from mocap.safe_files import UnsafeNameError, check_name, check_names
 
 FORMAT = "mocap-sequence-v1"
 _COLUMNS = ["frame", "view", "label", "x", "y", "confidence"]
+#: the most frames a folder of keypoints alone (no image files to count) may claim
+MAX_KEYPOINT_FRAMES = 1_000_000
 
 
 class SequenceFormatError(ValueError):
@@ -92,11 +96,15 @@ def _parallel(fn, items, threads: int = 4):
 def write_sequence(seq: Sequence, folder: str | Path, overwrite: bool = False) -> Path:
     """Write a sequence folder atomically; returns its path."""
     folder = Path(folder)
+    # the views' names become folder names (masks/<view>): plain names only, checked before any write
+    check_names(seq.rig.names, "camera name", f"the cameras of sequence {seq.name!r}")
+    check_fps(seq.fps, f"sequence {seq.name!r}: fps")
     if folder.exists() and not overwrite:
         raise FileExistsError(f"{folder} exists (pass overwrite=True to replace it)")
+    if folder.is_symlink():
+        raise FileExistsError(f"{folder} is a symbolic link: write the sequence to a plain folder")
     folder.parent.mkdir(parents=True, exist_ok=True)
-    tmp = folder.with_name(f".{folder.name}.tmp-{uuid.uuid4().hex[:8]}")
-    tmp.mkdir()
+    tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=folder.parent))
     try:
         names = list(seq.rig.names)
         save_calibration(seq.rig, tmp / "calibration.json")
@@ -157,9 +165,35 @@ def _read_json(path: Path, hint: str) -> dict:
 
 
 def _require(obj: dict, key: str, where: Path):
+    if not isinstance(obj, dict):
+        raise SequenceFormatError(f"{where}: must hold a JSON object, got {type(obj).__name__}")
     if key not in obj:
         raise SequenceFormatError(f"{where}: missing field '{key}'")
     return obj[key]
+
+
+def _field(check, where: Path, field: str, *args):
+    """``check(value, "<file>: field '<field>'", *args)``, its error as SequenceFormatError."""
+    try:
+        return check(f"{where}: field '{field}'", *args)
+    except (BadValueError, UnsafeNameError) as exc:
+        raise SequenceFormatError(str(exc)) from None
+
+
+def _count_files(folder: Path, kind: str, views: list[str], frames: int, meta_path: Path) -> None:
+    """Before any array is allocated: each view's folder of ``kind`` holds ``frames`` frame files
+    (a count that disagrees is named; a huge claimed count is not read)."""
+    for view in views:
+        d = folder / kind / view
+        if d.is_symlink() or not d.is_dir():
+            raise SequenceFormatError(f"{d}: missing folder ({kind} of view {view!r}; "
+                                      f"{meta_path} lists {kind} in field 'content')")
+        n = sum(1 for p in d.iterdir() if p.suffix == ".png")
+        if n < frames:
+            f = next(f for f in range(n + 1) if not (d / _frame_name(f)).is_file())
+            raise SequenceFormatError(f"{d / _frame_name(f)}: missing frame file ({kind}, view {view!r}, "
+                                      f"frame {f}; {meta_path.name} field 'frames' says {frames}, the "
+                                      f"folder holds {n})")
 
 
 def _read_images(folder: Path, kind: str, views: list[str], frames: int, w: int, h: int,
@@ -204,14 +238,34 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
     fmt = _require(info, "format", meta_path)
     if fmt != FORMAT:
         raise SequenceFormatError(f"{meta_path}: field 'format' is {fmt!r}, expected {FORMAT!r}")
-    frames = int(_require(info, "frames", meta_path))
-    views = list(_require(info, "views", meta_path))
-    w, h = (int(x) for x in _require(info, "image_size", meta_path))
-    content = _require(info, "content", meta_path)
+    frames = _field(lambda w: check_int(_require(info, "frames", meta_path), w, 0, MAX_FRAMES),
+                    meta_path, "frames")
+    views = _field(lambda w: check_type(_require(info, "views", meta_path), w, list, "a list of view names"),
+                   meta_path, "views")
+    _field(lambda w: check_names(views, "view name", w), meta_path, "views")
+    size = _field(lambda w: check_type(_require(info, "image_size", meta_path), w, list, "[width, height]"),
+                  meta_path, "image_size")
+    if len(size) != 2:
+        raise SequenceFormatError(f"{meta_path}: field 'image_size' must be [width, height], got {size!r}")
+    w, h = (_field(lambda f, v=v: check_int(v, f, 1, MAX_IMAGE_SIDE), meta_path, "image_size") for v in size)
+    content = _field(lambda f: check_type(_require(info, "content", meta_path), f, dict,
+                                          "a mapping of what the folder holds"), meta_path, "content")
+    for key, value in content.items():
+        _field(lambda f, v=value: check_type(v, f, bool, "true or false"), meta_path, f"content.{key}")
+    fps = _field(lambda f: check_fps(info.get("fps", 25.0), f), meta_path, "fps")
+    name = info.get("name", folder.name)
+    _field(lambda f: check_type(name, f, str, "a string"), meta_path, "name")
+    _field(lambda f: check_type(info.get("meta", {}), f, dict, "a mapping"), meta_path, "meta")
     rig = load_calibration(folder / "calibration.json")
     if list(rig.names) != views:
         raise SequenceFormatError(f"{folder / 'calibration.json'}: cameras {list(rig.names)} do not "
                                   f"match field 'views' of sequence.json {views}")
+    for kind in ("masks", "images"):
+        if content.get(kind) and (kind == "masks" or images):
+            _count_files(folder, kind, views, frames, meta_path)
+    if not content.get("masks") and not (content.get("images") and images) and frames > MAX_KEYPOINT_FRAMES:
+        raise SequenceFormatError(f"{meta_path}: field 'frames' = {frames} is more than a keypoint folder "
+                                  f"holds (at most {MAX_KEYPOINT_FRAMES})")
     for cam in rig:
         if (cam.width, cam.height) != (w, h):
             raise SequenceFormatError(f"{folder / 'calibration.json'}: camera {cam.name!r} is "
@@ -243,7 +297,7 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
         meta["dropped_nonfinite"] = dropped
         warnings.warn(f"{folder}: non-finite values dropped (nonfinite=drop): "
                       + ", ".join(f"{n} {what}" for what, n in dropped.items()), stacklevel=2)
-    return Sequence(name=str(info.get("name", folder.name)), rig=rig, fps=float(info.get("fps", 25.0)),
+    return Sequence(name=name, rig=rig, fps=fps,
                     masks=masks, images=imgs, detections=det, gt=truth, meta=meta,
                     # the count only where no array carries it (keypoints alone)
                     frames=frames if masks is None and imgs is None else None)
@@ -252,7 +306,11 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
 def _load_detections(path: Path, views: list[str], frames: int | None = None, nonfinite: str = "refuse",
                      dropped: dict | None = None) -> Detections:
     d = _read_json(path, "sequence.json lists detections")
-    labels = tuple(_require(d, "labels", path))
+    labels = _field(lambda f: check_type(_require(d, "labels", path), f, list, "a list of label names"),
+                    path, "labels")
+    for i, label in enumerate(labels):
+        _field(lambda f, v=label: check_name(v, "label", f), path, f"labels[{i}]")
+    labels = tuple(labels)
     columns = _require(d, "columns", path)
     if columns not in (_COLUMNS, [*_COLUMNS, "person"]):
         raise SequenceFormatError(f"{path}: field 'columns' must be {_COLUMNS} (optionally with 'person' "
@@ -360,6 +418,8 @@ def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: st
                                       f"'joints' {gt.joints.shape} has {P} people (axis 1)")
         if len(set(gt.person_names)) != P:
             raise SequenceFormatError(f"{path}: field 'person_names' repeats a name")
+        for i, n in enumerate(gt.person_names):
+            _field(lambda f, v=n: check_name(v, "person name", f), path, f"person_names[{i}]")
         for key in ("chi", "alpha", "markers"):
             if getattr(gt, key) is not None:
                 raise SequenceFormatError(f"{path}: field '{key}' is not allowed with several people "

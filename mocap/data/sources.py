@@ -20,6 +20,9 @@ from mocap.data.sequence_io import NO_GT_HINT, gt_opted_out, load_sequence
 def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, frames: int,
                        fps: float, seed: int, name: str = "synthetic", **options) -> Sequence:
     """Generate a sequence in memory (see :func:`mocap.data.generate.make_synthetic`)."""
+    from mocap.checks import check_fps
+
+    check_fps(fps, "data.fps")
     rig = rig_from_config(cameras)
     return make_synthetic(body, rig, motion=motion, frames=frames, fps=fps, seed=seed, name=name,
                           **options)

@@ -47,6 +47,7 @@ colour per person id (:func:`person_color`):
 from __future__ import annotations
 
 import json
+import threading
 from pathlib import Path
 
 import cv2
@@ -117,6 +118,40 @@ def body_colors(body: BodyModel) -> np.ndarray:
     return palette[body.part_labels]
 
 
+#: the longest wait, in seconds, for the recording to reach its file (a full disk can block the
+#: writer for ever: the run then ends with :class:`RecordingWriteError` instead of hanging)
+WRITE_TIMEOUT_S = 60.0
+#: recordings given up on: kept referenced (dropping one would wait on its writer again); a
+#: process holding any must leave with os._exit (mocap_cli.main does)
+ABANDONED: list = []
+
+
+class RecordingWriteError(OSError):
+    """The recording could not be written (a full disk, a failing write, a writer that hangs)."""
+
+
+def _bounded(fn, path: Path, what: str) -> None:
+    """``fn()`` in a helper thread, waited for at most :data:`WRITE_TIMEOUT_S`."""
+    done, failed = threading.Event(), []
+
+    def work():
+        try:
+            fn()
+        except BaseException as exc:        # re-raised in the caller's thread
+            failed.append(exc)
+        finally:
+            done.set()
+
+    threading.Thread(target=work, daemon=True, name=f"mocap-recording-{what}").start()
+    if not done.wait(WRITE_TIMEOUT_S):
+        rr.unregister_shutdown()            # nor may the exit wait on it
+        raise RecordingWriteError(f"{path}: the recording could not be written within {WRITE_TIMEOUT_S:g} s "
+                                  f"({what} blocked: disk full?); the run is incomplete")
+    if failed:
+        raise RecordingWriteError(f"{path}: the recording could not be written "
+                                  f"({type(failed[0]).__name__}: {failed[0]})") from failed[0]
+
+
 class RerunSink:
     """Writes a run to ``path`` with the given :class:`RecordingSettings` (level, every,
     particles, images, scale; what each level holds: the module docstring)."""
@@ -172,7 +207,7 @@ class RerunSink:
         rec.log("run/metadata", rr.TextDocument(json.dumps(info.metadata, indent=2)), static=True)
         # the file holds the run's config and cameras before tracking starts (frames come in
         # batches): a run that dies keeps them, and ``<path>.part`` marks a run in progress
-        rec.flush()
+        _bounded(rec.flush, self.part, "flush")
 
     def finish(self, metrics: dict | None, failed: bool = False) -> None:
         if self.rec is None:
@@ -184,9 +219,13 @@ class RerunSink:
             if metrics is not None:
                 self.rec.log("run/metrics", rr.TextDocument(json.dumps(metrics, indent=2)), static=True)
         finally:                                      # the file is closed and named whatever happens
-            self.rec.flush()
-            self.rec.disconnect()
-            self.rec = None
+            rec, self.rec = self.rec, None
+            try:                                      # waited for a bounded time (a full disk can block it)
+                _bounded(rec.flush, self.part, "flush")
+                _bounded(rec.disconnect, self.part, "disconnect")
+            except RecordingWriteError:
+                ABANDONED.append(rec)                 # <path>.part stays: the folder is visibly incomplete
+                raise
             target = self.path.with_name("recording.failed.rrd") if failed else self.path
             self.part.replace(target)
 

@@ -48,14 +48,20 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
         raise FileExistsError(f"{out} exists (pass --overwrite / overwrite=True to replace it)")
     from mocap.export.motion import load_motion  # (numpy: after the checks)
 
+    if fmt == "gltf" and body is None:      # the stored config is checked before anything is read
+        from mocap.run_folder.read import run_config
+        run_config(run_dir)
     if person is None:
         motion = load_motion(run_dir / "motion.npz")
     else:
         from mocap.export.people_motion import person_motion
 
         motion = person_motion(run_dir / "motion.npz", person)
-    tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
-    try:
+    if fmt == "gltf" and body is None:      # the run's body, from its config: refused before any write
+        body = motion_body(run_dir, motion)
+    from mocap.safe_files import temporary_beside
+
+    with temporary_beside(out, suffix=f".tmp{out.suffix}") as tmp:
         if fmt == "bvh":
             from mocap.export.bvh import write_bvh
             write_bvh(motion, tmp)
@@ -67,10 +73,8 @@ def export_run(run_dir: str | Path, fmt: str, out: str | Path | None = None,
             write_c3d(motion, tmp, which=markers)
         else:
             from mocap.export.gltf import write_gltf
-            write_gltf(motion, tmp, body if body is not None else motion_body(run_dir, motion), influences)
+            write_gltf(motion, tmp, body, influences)
         os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
     return out
 
 

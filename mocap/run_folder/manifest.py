@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 from mocap.run_folder.read import write_json
+from mocap.safe_files import check_name, name_problem
 
 FORMAT = "mocap-run-v1"
 MANIFEST = "manifest.json"
@@ -44,7 +45,12 @@ def sha256(path: Path) -> str:
 
 def write_manifest(run_dir: str | Path, files: list[str], overrides: list[str] | None = None) -> dict:
     """Checksum ``files`` of ``run_dir`` and write manifest.json (atomically, last)."""
+    from mocap.run_folder.lock import require_held
+
     run_dir = Path(run_dir)
+    require_held(run_dir)           # only the process holding the folder's lock seals it
+    for name in files:
+        check_name(name, "result file", run_dir / MANIFEST)
     manifest = {"format": FORMAT,
                 "files": {name: {"bytes": (run_dir / name).stat().st_size, "sha256": sha256(run_dir / name)}
                           for name in files},
@@ -79,6 +85,9 @@ def manifest_problem(run_dir: str | Path) -> str | None:
         if read_manifest(run_dir / PREVIOUS) is not None:
             why += f"; the last complete run is kept in {PREVIOUS}/"
         return why
+    for name in manifest["files"]:
+        if name_problem(name) is not None or not isinstance(manifest["files"][name], dict):
+            return f"{MANIFEST} lists {str(name)[:240]!r}, not a plain file name of the folder"
     if "metrics.json" not in manifest["files"]:
         return f"{MANIFEST} does not list metrics.json"
     for name in RESULTS:
@@ -86,6 +95,8 @@ def manifest_problem(run_dir: str | Path) -> str | None:
             return f"{name} is not listed in {MANIFEST} (written after the run)"
     for name, entry in manifest["files"].items():
         path = run_dir / name
+        if path.is_symlink():
+            return f"{name} is a symbolic link (a run's files are plain files of its folder)"
         if not path.is_file():
             return f"{name} is missing (listed in {MANIFEST})"
         if path.stat().st_size != entry.get("bytes"):

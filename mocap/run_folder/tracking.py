@@ -44,7 +44,7 @@ from mocap.export.motion import motion_arrays, write_motion
 from mocap.export.people_motion import people_motion_arrays, write_people_motion
 from mocap.recording.factory import make_sink
 from mocap.recording.sink import RunInfo
-from mocap.run_folder.attempt import run_attempt, seal_run
+from mocap.run_folder.attempt import own_run_folder, run_attempt, seal_run
 from mocap.run_folder.manifest import manifest_problem
 from mocap.run_folder.metadata import run_metadata
 from mocap.run_folder.people import people_metrics
@@ -113,7 +113,7 @@ def run_tracking(out_dir: str | Path, config: Mapping, *,
     are still the given tracker's). extra(metrics, result, body, seq): more metrics.
     overrides: the command line's overrides, kept in the manifest (the labels of the run).
     """
-    with _sigterm_as_interrupt():
+    with _sigterm_as_interrupt(), own_run_folder(out_dir):       # one writer per folder
         return _run(Path(out_dir), dict(config), make_body, make_sequence, make_tracker, parallel_jobs,
                     source, wrap, extra, overrides)
 

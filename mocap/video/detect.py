@@ -28,7 +28,6 @@ always: results are never mixed.
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import time
 from collections.abc import Sequence as Seq
@@ -40,6 +39,7 @@ import numpy as np
 
 from mocap.cameras import load_calibration, project, triangulate
 from mocap.data.openpose import _find_calibration
+from mocap.safe_files import check_names, inside, write_text_atomic
 from mocap.video.detector import NUM_KEYPOINTS, DetectorSettings, PoseDetector
 from mocap.video.frames import VideoError, VideoFrames, frame_range, match_videos, video_info
 
@@ -71,9 +71,7 @@ class DetectPlan:
 
 
 def _atomic_json(path: Path, data: dict) -> None:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(json.dumps(data, indent=1))
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(data, indent=1))
 
 
 def plan_detection(source: str | Path, out: str | Path, *, videos: str = "videos",
@@ -89,7 +87,8 @@ def plan_detection(source: str | Path, out: str | Path, *, videos: str = "videos
     if not 0 < scale <= 1:
         raise ValueError(f"scale must be in (0, 1] (detection resolution / calibrated), got {scale}")
     calib = root / calibration if calibration is not None else _find_calibration(root)
-    rig = load_calibration(calib)
+    rig = load_calibration(calib)       # (camera names are plain names: they become folder names)
+    check_names(rig.names, "camera name", calib)
     paths = match_videos(rig.names, root / videos)
     infos = []
     for p in paths:
@@ -216,9 +215,7 @@ def fix_left_right(plan: DetectPlan, progress: bool = True) -> dict[str, list[in
             if people:
                 kp[c] = np.reshape(people[0]["pose_keypoints_2d"], (NUM_KEYPOINTS, 3))
         for c in left_right_fixes(rig, kp):
-            tmp = paths[c].with_name(paths[c].name + ".part")
-            tmp.write_text(json.dumps(_people_json(kp[c])))
-            os.replace(tmp, paths[c])
+            write_text_atomic(paths[c], json.dumps(_people_json(kp[c])))
             fixes[plan.names[c]].append(n)
     return fixes
 
@@ -235,6 +232,7 @@ def run_detection(plan: DetectPlan, progress: bool = True, left_right: bool = Tr
     from tqdm import tqdm
 
     out = plan.out
+    check_names(plan.names, "camera name", plan.calibration)
     out.mkdir(parents=True, exist_ok=True)
     head = {"format": FORMAT, "source": str(plan.source.resolve()), "calibration": plan.calibration.name,
             "layout": "MEDIAPIPE_33", "cameras": list(plan.names)}
@@ -250,10 +248,13 @@ def run_detection(plan: DetectPlan, progress: bool = True, left_right: bool = Tr
     for c, name in enumerate(plan.names):
         if name not in plan.todo:
             continue
-        rec = out / RECORDS_DIR / f"{name}.json"
+        rec = inside(out / RECORDS_DIR / f"{name}.json", out, "delete")
         rec.unlink(missing_ok=True)
         kdir, mdir = out / KEYPOINTS_DIR / f"{name}_json", out / MASKS_DIR / name
         for d in (kdir, mdir):
+            inside(d, out, "delete")
+            if d.is_symlink():          # never through a link: only the link goes
+                d.unlink()
             shutil.rmtree(d, ignore_errors=True)
             d.mkdir(parents=True)
         frames = VideoFrames([plan.videos[c]], [plan.sizes[c]], list(plan.frames), plan.scale,

@@ -28,7 +28,7 @@ def videos_fps(recording: Path) -> float:
     if not videos:
         raise ValueError(f"{recording}: no videos/ to read the frame rate from: pass --fps (the "
                          "recording's frames per second; the Pose2Sim demo is 60)")
-    from mocap.data.video import video_info
+    from mocap.video.frames import video_info
 
     fps = float(video_info(videos[0]).fps)
     if not fps > 0:
@@ -56,6 +56,10 @@ def main(argv: list[str] | None = None) -> int:
                                               "folder's gt.npz, when there is one)")
     p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
     args = p.parse_args(argv)
+    from mocap.checks import check_fps
+
+    if args.fps is not None:
+        check_fps(args.fps, "--fps")                # before anything is read or written
     fps = args.fps if args.fps is not None else videos_fps(Path(args.recording))
     out = convert_pose2sim(args.recording, args.out, person=args.person, overwrite=args.overwrite,
                            layout=args.layout, fps=fps, frames=args.frames,

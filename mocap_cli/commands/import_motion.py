@@ -49,6 +49,10 @@ def main(argv: list[str] | None = None) -> int:
         raise FileNotFoundError(f"{args.clip}: no such BVH file")
     if args.step < 1:
         raise ValueError(f"--step {args.step}: a positive integer")
+    if args.fps is not None:
+        from mocap.checks import check_fps
+
+        check_fps(args.fps, "--fps")
     out = args.out / "motion.npz" if args.out.is_dir() or not args.out.suffix else args.out
     if out.exists() and not args.overwrite:
         raise FileExistsError(f"{out} exists (--overwrite to replace it)")
@@ -62,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     written = import_motion(args.clip, out, body, unit=args.unit, up=args.up, frames=args.frames,
                             name_map=args.name_map, step=args.step, fps=args.fps,
                             overwrite=args.overwrite, match=args.match)
-    with np.load(written) as z:
+    with np.load(written, allow_pickle=False) as z:
         res = z["retarget_residual_mm"]
     print(f"{args.clip.name} -> {written}: {res.shape[0]} frames on {args.body}, residual median "
           f"{np.nanmedian(res):.1f} mm, worst {np.nanmax(res):.1f} mm")

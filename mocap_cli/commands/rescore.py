@@ -15,11 +15,13 @@ speed, effort and initialisation figures are kept. The figures it replaces are k
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import subprocess
 import sys
 from pathlib import Path
 
+from mocap.run_folder.lock import RunFolderBusy, run_lock
 from mocap.run_folder.manifest import PREVIOUS, read_manifest, require_complete, write_manifest
 from mocap_cli import source_checkout
 from mocap_cli.errors import ArgumentParser
@@ -48,8 +50,9 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
     metrics = json.loads((run / "metrics.json").read_text())
     if "config" not in metrics:
         raise ValueError(f"{run}: metrics.json holds no config (not a mocap track run)")
-    body = run_body(metrics["config"])
-    seq = run_sequence(metrics["config"], body)
+    where = str(run / "metrics.json")
+    body = run_body(metrics["config"], where=where)
+    seq = run_sequence(metrics["config"], body, where=where)
     if seq.gt is None:
         raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
     motion = load_motion(run)
@@ -87,8 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     failed = 0
     for i, run in enumerate(runs, 1):
         try:
-            old, new = rescore(run, version, args.dry_run)
-        except (ValueError, FileNotFoundError) as exc:
+            with contextlib.nullcontext() if args.dry_run else run_lock(run):     # one writer per folder
+                old, new = rescore(run, version, args.dry_run)
+        except (ValueError, FileNotFoundError, RunFolderBusy) as exc:
             print(f"[{i}/{len(runs)}] {run}: skipped: {exc}", file=sys.stderr)
             failed += 1
             continue

@@ -122,10 +122,11 @@ def test_pose2sim_toml_round_trip_is_exact_to_float_precision(tmp_path, k3):
 
 def test_pose2sim_writer_quotes_camera_names_that_are_not_bare_keys(tmp_path):
     rig = random_rig(2, num_cameras=2)
-    rig = Rig((rig[0].replace(name="left cam"), rig[1].replace(name='"quoted" ü')))
+    # (quotes are not allowed in a camera name since names become file names: issue 36)
+    rig = Rig((rig[0].replace(name="left cam"), rig[1].replace(name="cam.ü (2)")))
     path = tmp_path / "Calib.toml"
     write_pose2sim_calibration(rig, path, metadata={})
-    assert read_pose2sim_calibration(path).names == ("left cam", '"quoted" ü')
+    assert read_pose2sim_calibration(path).names == ("left cam", "cam.ü (2)")
 
 
 # --- the real Pose2Sim demo calibration -----------------------------------------------------

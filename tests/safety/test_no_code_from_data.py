@@ -1,0 +1,130 @@
+"""A run folder is data (issue 36, S1): the ``_target_`` names in its ``metrics.json`` are looked
+up in a closed registry (:data:`mocap.presets.TARGETS`); a name that is not registered, a setting
+the builder does not take, or a nested unregistered target is refused in one line by ``mocap
+rescore`` (also ``--dry-run``) and ``mocap export --format gltf`` before anything is written
+(the whole temporary tree is listed, with sizes and checksums, before and after), and no function
+outside the registry is reached (the callable each path would reach is replaced by one that
+records the call, and ``importlib.import_module`` is watched)."""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+
+import pytest
+
+from mocap import presets
+from mocap.run_folder.manifest import write_manifest
+from mocap_cli.main import main
+from tests.safety.helpers import tree
+
+GOOD_BODY = {"_target_": "mocap.body.load_body", "name": "paper22"}
+GOOD_DATA = {"_target_": "mocap.data.sources.synthetic_sequence", "cameras": "ring4_small", "motion": "walk",
+             "frames": 2, "fps": 25, "seed": 0, "name": "x", "images": False}
+
+
+def evil_configs(victim: Path) -> dict[str, dict]:
+    """Stored configs that name something outside the registry (or misuse a registered one)."""
+    write = {"_target_": "mocap.run_folder.read.write_json", "path": str(victim / "written.json"),
+             "data": {"owned": True}}
+    drop = {"_target_": "mocap.run_folder.resume.drop_previous", "out_dir": str(victim)}
+    git = {"_target_": "mocap.run_folder.metadata.git_revision"}
+    return {
+        "body_write_json": {"body": write, "data": GOOD_DATA},
+        "data_write_json": {"body": GOOD_BODY, "data": write},
+        "body_drop_previous": {"body": drop, "data": GOOD_DATA},
+        "data_git_revision": {"body": GOOD_BODY, "data": git},
+        "os_system": {"body": {"_target_": "os.system", "command": f"touch {victim}/pwned"},
+                      "data": GOOD_DATA},
+        "presets_build": {"body": {"_target_": "mocap.presets.build", "config": write}, "data": GOOD_DATA},
+        "nested_camera_target": {"body": GOOD_BODY, "data": {**GOOD_DATA, "cameras": write}},
+        "deep_nested_target": {"body": GOOD_BODY, "data": GOOD_DATA, "extra": {"a": [{"b": write}]}},
+        "wrong_kind": {"body": {**GOOD_DATA}, "data": GOOD_DATA},
+        "unknown_setting": {"body": {**GOOD_BODY, "path": str(victim / "x")}, "data": GOOD_DATA},
+        "target_not_a_string": {"body": {"_target_": ["mocap.run_folder.read", "write_json"]},
+                                "data": GOOD_DATA},
+        "dunder_target": {"body": {"_target_": "mocap.__builtins__.eval", "source": "1"}, "data": GOOD_DATA},
+    }
+
+
+def evil_run(d: Path, config: dict) -> Path:
+    d.mkdir(parents=True)
+    (d / "motion.npz").write_bytes(b"not read before the config is checked")
+    (d / "metrics.json").write_text(json.dumps({"tracker": "apf", "mpjpe_mm": 20.0, "config": config}))
+    write_manifest(d, ["motion.npz", "metrics.json"])
+    return d
+
+
+@pytest.fixture
+def watch(monkeypatch):
+    """Record every module import and make the demonstrated functions fail loudly if reached."""
+    imported: list[str] = []
+    real = importlib.import_module
+
+    def recording(name, package=None):
+        imported.append(name)
+        return real(name, package)
+
+    monkeypatch.setattr(importlib, "import_module", recording)
+    reached: list[str] = []
+    import mocap.run_folder.resume
+    import mocap.run_folder.metadata
+
+    import mocap.run_folder.read
+    for module, attr in ((mocap.run_folder.read, "write_json"), (mocap.run_folder.resume, "drop_previous"),
+                         (mocap.run_folder.metadata, "git_revision")):
+        monkeypatch.setattr(module, attr, lambda *a, _n=attr, **k: reached.append(_n))
+    return imported, reached
+
+
+ALLOWED_MODULES = {m for _, m, _ in presets.TARGETS.values()}
+
+
+@pytest.mark.parametrize("case", sorted(evil_configs(Path("/x"))))
+@pytest.mark.parametrize("command", ["rescore-dry", "rescore", "export-gltf"])
+def test_a_stored_target_outside_the_registry_is_refused_and_nothing_is_written(
+        case, command, tmp_path, watch, capsys):
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "keep.txt").write_text("precious")
+    (victim / "previous_run").mkdir()
+    run = evil_run(tmp_path / "run", evil_configs(victim)[case])
+    before = tree(tmp_path)
+    argv = {"rescore-dry": ["rescore", str(run), "--dry-run"], "rescore": ["rescore", str(run)],
+            "export-gltf": ["export", str(run), "--format", "gltf"]}[command]
+    code = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code != 0
+    assert len(err) == 1 and "refused" in err[0] and "metrics.json" in err[0], err
+    assert tree(tmp_path) == before                     # nothing written, moved or deleted anywhere
+    imported, reached = watch
+    assert reached == []
+    outside = [m for m in imported if m not in ALLOWED_MODULES and not m.startswith("mocap_cli.commands.")]
+    assert outside == []
+
+
+def test_a_registered_config_still_builds(tmp_path):
+    """The registry is not a wall: the shipped presets and a stored config of registered names
+    build (the body and a two-frame synthetic sequence)."""
+    from mocap.run_folder.read import run_body, run_sequence
+
+    body = run_body({"body": GOOD_BODY, "data": GOOD_DATA})
+    seq = run_sequence({"body": GOOD_BODY, "data": GOOD_DATA}, body)
+    assert body.num_dofs == 22 and seq.num_frames == 2
+    for name in presets.names("cameras"):
+        assert len(presets.build(presets.read("cameras", name), kind="cameras").cameras) > 0
+
+
+def test_every_target_in_the_shipped_configs_is_registered():
+    """conf/ and the presets name only registered builders (else the command line would refuse them)."""
+    root = Path(__file__).resolve().parents[2]
+    found = set()
+    for path in [*root.glob("mocap_cli/conf/**/*.yaml"), *root.glob("conf/**/*.yaml"),
+                 *root.glob("mocap/presets/**/*.yaml")]:
+        text = path.read_text()
+        if "_target_" in text:
+            for line in text.splitlines():
+                if line.strip().startswith("_target_:"):
+                    found.add(line.split(":", 1)[1].split("#")[0].strip())
+    assert len(found) >= 10 and found <= set(presets.TARGETS), found - set(presets.TARGETS)

@@ -1,0 +1,133 @@
+"""One writer per run folder (issue 36): a process holding the folder's lock
+(:mod:`mocap.run_folder.lock`) makes every other one refuse at once, in one line naming the
+holder; a manifest is written only by the holder; what an interrupted run left is put right at
+the next start. Processes synchronise on the lock file's content, never on sleeps."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from mocap.run_folder.lock import LOCK, RunFolderBusy, holds, run_lock
+from mocap.run_folder.manifest import manifest_problem, write_manifest
+
+REPO = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": str(REPO), "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+       "NUMBA_NUM_THREADS": "1"}
+
+
+def wait_for_holder(folder: Path, pid: int, proc: subprocess.Popen, timeout: float = 600) -> None:
+    """Until the lock file names ``pid`` (it is written once the lock is held)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            if json.loads((folder / LOCK).read_text() or "{}").get("pid") == pid:
+                return
+        except (OSError, ValueError):
+            pass
+        if proc.poll() is not None:
+            raise AssertionError(f"the first process ended ({proc.returncode}) before holding the lock: "
+                                 + proc.stderr.read()[-2000:])
+        time.sleep(0.01)
+    raise AssertionError("the lock was never taken")
+
+
+@pytest.fixture
+def holder(tmp_path):
+    """Another process holding ``tmp_path/run``'s lock until its stdin closes."""
+    run = tmp_path / "run"
+    code = ("import sys; from mocap.run_folder.lock import run_lock\n"
+            f"with run_lock({str(run)!r}):\n    sys.stdin.read()\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=ENV, cwd=REPO)
+    wait_for_holder(run, proc.pid, proc, 120)
+    yield run, proc
+    proc.stdin.close()
+    proc.wait(60)
+
+
+def test_a_second_writer_is_refused_naming_the_holder(holder):
+    run, proc = holder
+    t = time.perf_counter()
+    with pytest.raises(RunFolderBusy, match=rf"pid {proc.pid} on \S+ since \d{{4}}-") as info:
+        with run_lock(run):
+            pass
+    assert time.perf_counter() - t < 1.0 and "\n" not in str(info.value)
+    (run / "motion.npz").write_bytes(b"m")
+    (run / "metrics.json").write_text("{}")
+    with pytest.raises(RunFolderBusy, match="its manifest is not written by this one"):
+        write_manifest(run, ["motion.npz", "metrics.json"])
+    assert not (run / "manifest.json").exists()
+
+
+def test_the_lock_goes_with_its_holder_however_it_ends(tmp_path):
+    run = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-c", f"from mocap.run_folder.lock import run_lock\n"
+                             f"import os, sys\nwith run_lock({str(run)!r}):\n    sys.stdin.read()\n"],
+                            stdin=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=REPO)
+    wait_for_holder(run, proc.pid, proc, 120)
+    proc.kill()                                        # SIGKILL: no clean-up of its own
+    proc.wait(60)
+    with run_lock(run):
+        assert holds(run)
+        with run_lock(run):                            # re-entrant within a process
+            assert holds(run)
+    assert not holds(run)
+
+
+def test_a_planted_link_as_lock_file_is_refused(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (tmp_path / "elsewhere").write_text("keep")
+    (run / LOCK).symlink_to(tmp_path / "elsewhere")
+    with pytest.raises(RunFolderBusy, match="symbolic link"):
+        with run_lock(run):
+            pass
+    assert (tmp_path / "elsewhere").read_text() == "keep"
+
+
+TRACK = ["tracker=apf", "data=walk_small", "data.frames=2", "tracker.particles=4", "tracker.layers=2",
+         "recording.enabled=false"]
+
+
+#: ``mocap track`` that, once it holds the lock, waits for the file argv[1] before going on
+HELD_TRACK = """
+import pathlib, sys, time
+import mocap.run_folder.attempt as attempt
+go, tidy = pathlib.Path(sys.argv[1]), attempt.tidy_leftovers
+def waiting(out_dir):
+    while not go.exists():
+        time.sleep(0.01)
+    return tidy(out_dir)
+attempt.tidy_leftovers = waiting
+from mocap_cli.main import main
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+def test_two_track_processes_on_one_folder_the_second_refuses_the_first_completes(tmp_path):
+    run, go = tmp_path / "run", tmp_path / "go"
+    first = subprocess.Popen([sys.executable, "-c", HELD_TRACK, str(go), "track", f"hydra.run.dir={run}",
+                              "seed=0", *TRACK], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env=ENV, cwd=REPO)
+    wait_for_holder(run, first.pid, first)
+    second = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={run}", "seed=1",
+                             *TRACK], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=600)
+    go.touch()
+    first_out, first_err = first.communicate(timeout=900)
+    assert second.returncode == 2
+    lines = [line for line in second.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and f"pid {first.pid}" in lines[0] and "refused" in lines[0], second.stderr
+    assert first.returncode == 0, first_err[-3000:]
+    assert manifest_problem(run) is None
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["config"]["seed"] == 0                        # the first one's run, whole
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert "seed=0" in manifest["overrides"] and "seed=1" not in manifest["overrides"]
+    assert not (run / LOCK).exists()                             # removed by its holder
