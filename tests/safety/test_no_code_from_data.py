@@ -68,10 +68,9 @@ def watch(monkeypatch):
 
     monkeypatch.setattr(importlib, "import_module", recording)
     reached: list[str] = []
-    import mocap.run_folder.resume
     import mocap.run_folder.metadata
-
     import mocap.run_folder.read
+    import mocap.run_folder.resume
     for module, attr in ((mocap.run_folder.read, "write_json"), (mocap.run_folder.resume, "drop_previous"),
                          (mocap.run_folder.metadata, "git_revision")):
         monkeypatch.setattr(module, attr, lambda *a, _n=attr, **k: reached.append(_n))
