@@ -195,16 +195,32 @@ def parallel_jobs() -> int:
     return int(hc.launcher.get("n_jobs", 1) or 1)
 
 
+_ANNOUNCED: set[str] = set()
+
+
 def build(node, **kwargs):
     """Instantiate a config node (``_target_`` + arguments); objects go in through a partial,
-    since Hydra would turn dataclass arguments into configs. Every ``_target_`` in it must be a
-    registered builder (:data:`mocap.presets.TARGETS`), as for a config read from a file."""
+    since Hydra would turn dataclass arguments into configs.
+
+    This is the user's own command line (the shipped configs, their overrides and the config
+    folders they add with ``--config-dir``): a ``_target_`` outside the registry
+    (:data:`mocap.presets.TARGETS`) is their own code, e.g. a tracker of their own
+    (:mod:`mocap.trackers.contract`), built with a one-line note. Configs read back from files
+    (a run folder's metrics.json in rescore and export) never get here: they are checked against
+    the registry and refused (:mod:`mocap.run_folder.read`)."""
     from mocap import presets
     from mocap_cli import interrupt
 
     interrupt.check()           # a Ctrl-C swallowed by a library while it was imported
     plain_node = OmegaConf.to_container(node, resolve=True) if isinstance(node, DictConfig) else node
-    presets.check_targets(plain_node)
+    target = plain_node.get("_target_") if isinstance(plain_node, dict) else None
+    if isinstance(target, str) and target not in presets.TARGETS:
+        if target not in _ANNOUNCED:
+            _ANNOUNCED.add(target)
+            print(f"note: building {target} (your configuration's own code, not a mocap builder)",
+                  file=sys.stderr)
+    else:
+        presets.check_targets(plain_node)
     built = instantiate(node, _partial_=True)(**kwargs) if kwargs else instantiate(node)
     interrupt.check()
     return built

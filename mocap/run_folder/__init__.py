@@ -13,8 +13,11 @@ __all__ = sorted(_LAZY)
 
 
 def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f"mocap.run_folder.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'mocap.run_folder' has no attribute {name!r}")
+    # plain import statements (no module name built from a string: nothing here imports by name)
+    if _LAZY.get(name) == "read":
+        from mocap.run_folder import read as module
+    elif _LAZY.get(name) == "tracking":
+        from mocap.run_folder import tracking as module
+    else:
+        raise AttributeError(f"module 'mocap.run_folder' has no attribute {name!r}")
+    return getattr(module, name)
