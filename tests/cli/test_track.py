@@ -89,7 +89,8 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
     overrides = [f"{k}={v}" for k, v in point.items() if k != "seed"]
     tracker = point.get("tracker", cfg.hydra.runtime.choices.tracker)
     search = "tracker.apf." if tracker.startswith("hybrid") else "tracker."      # the hybrid's APF
-    budget = [o for o in (f"++{search}particles=8", f"++{search}layers=2") if o.split("=")[0][2:] not in point]
+    budget = [o for o in (f"++{search}particles=8", f"++{search}layers=2")
+              if o.split("=")[0][2:] not in point]
     if tracker == "local":
         budget = []
     if cfg.init.mode == "tracker":           # a self-initialising sweep: a cheap initialisation
