@@ -18,18 +18,78 @@ def _valid(gt, F: int):
 
 
 _ORACLES: dict = {}
+_SURFACE_ORACLES: dict = {}
+
+
+def _oracle_key(body: BodyModel, seq: Sequence, F: int) -> tuple:
+    return (body.name, body.num_dofs, seq.name, F, float(np.nansum(seq.gt.joints[:F])))
+
+
+def oracle_fit(body: BodyModel, seq: Sequence, frames: int | None = None):
+    """The oracle (:func:`mocap.eval.mismatch.fit_oracle`) on the first ``frames`` frames of
+    ``seq``'s ground truth (all: None), fitted once per body and sequence in a process."""
+    gt = seq.gt
+    F = gt.num_frames if frames is None else frames
+    key = _oracle_key(body, seq, F)
+    if key not in _ORACLES:
+        _ORACLES[key] = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F), gt.skeleton or None)
+    return _ORACLES[key]
 
 
 def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None) -> dict:
-    """The oracle's metrics (:func:`mocap.eval.mismatch.fit_oracle`) on the first ``frames``
-    frames of ``seq``'s ground truth (all: None), computed once per body and sequence in a process."""
+    """The oracle's metrics (:func:`oracle_fit`)."""
+    return oracle_fit(body, seq, frames).metrics
+
+
+def surface_oracle_metrics(body: BodyModel, seq: Sequence, frames: int) -> dict | None:
+    """The surface oracle (:func:`mocap.eval.surface_oracle.fit_surface_oracle`) on the first
+    ``frames`` frames of the true surface, from the joint oracle's fit (ground truth by name
+    with both hips) or from the ground truth's own shape and poses (data our body generated);
+    None where neither is there. Fitted once per body and sequence in a process."""
+    from mocap.eval.surface_oracle import fit_surface_oracle
+
     gt = seq.gt
-    F = gt.num_frames if frames is None else frames
-    key = (body.name, body.num_dofs, seq.name, F, float(np.nansum(gt.joints[:F])))
-    if key not in _ORACLES:
-        _ORACLES[key] = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F),
-                                   gt.skeleton or None).metrics
-    return _ORACLES[key]
+    key = _oracle_key(body, seq, frames)
+    if key not in _SURFACE_ORACLES:
+        if gt.chi is not None and gt.alpha is not None and gt.chi.shape[1] == body.num_dofs:
+            alpha0, chi0 = gt.alpha, gt.chi[:frames]
+        elif gt.chi is None and {"l_hip", "r_hip"} <= set(NameScorer(body, gt).mapping.values()):
+            fit = oracle_fit(body, seq, frames)
+            alpha0, chi0 = fit.alpha, fit.chi
+        else:
+            return None
+        _SURFACE_ORACLES[key] = fit_surface_oracle(body, gt.surface[:frames], gt.surface_faces, alpha0,
+                                                   chi0).metrics
+    return _SURFACE_ORACLES[key]
+
+
+def surface_run_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray) -> dict:
+    """The surface part of :func:`accuracy_metrics` (a ground truth with ``surface``):
+    :func:`mocap.eval.surface.surface_metrics` of the tracked mesh (``surface_to_mesh_mm``,
+    ``..._p90_mm``, ``mesh_to_surface_mm``, ``..._p90_mm``, ``surface_per_frame``); with masks,
+    the silhouette overlap (``silhouette_iou``, ``..._per_view``, ``..._per_frame``); the
+    surface oracle's (``surface_oracle_mm``, ``surface_oracle_p90_mm``,
+    ``surface_oracle_mesh_to_surface_mm``, ``surface_oracle``: all its metrics and frames); and
+    ``surface_eval_sec`` (seconds spent on the metrics and on the oracle)."""
+    import time
+
+    from mocap.eval.surface import iou_metrics, silhouette_iou, surface_metrics
+
+    F = len(chis)
+    t0 = time.perf_counter()
+    verts = per_shape(body, alpha, chis, lambda shaped, c: shaped.vertices(c)).astype(np.float64)
+    out = surface_metrics(seq.gt.surface[:F], verts, body.faces, seq.gt.surface_faces)
+    if seq.masks is not None:
+        out.update(iou_metrics(silhouette_iou(seq.rig, body.faces, verts, seq.masks[:F]), seq.rig.names))
+    t1 = time.perf_counter()
+    oracle = surface_oracle_metrics(body, seq, F)
+    if oracle is not None:
+        out["surface_oracle_mm"] = oracle["surface_to_mesh_mm"]
+        out["surface_oracle_p90_mm"] = oracle["surface_to_mesh_p90_mm"]
+        out["surface_oracle_mesh_to_surface_mm"] = oracle["mesh_to_surface_mm"]
+        out["surface_oracle"] = oracle
+    out["surface_eval_sec"] = {"metrics": round(t1 - t0, 3), "oracle": round(time.perf_counter() - t1, 3)}
+    return out
 
 
 def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], seconds: list[float]) -> dict:
@@ -41,7 +101,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     frames_lost (after frame 0, raw error above 150 mm); for ground truth by name only (data our
     model did not generate) ``mismatch`` (raw / offset-removed / limb errors) and ``oracle`` (the
     same for our body fitted to the true joints: :mod:`mocap.eval.mismatch`); mmta,
-    mmtp_mm (when ground-truth markers match the default landmark set); without ground truth but
+    mmtp_mm (when ground-truth markers match the default landmark set); with a true surface
+    the surface metrics of :func:`surface_run_metrics`; without ground truth but
     with detections, the keypoint metrics of :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics`
     (reprojection error per view, bone-length stability, jitter); sec_per_frame,
     energy_evals_per_frame, and apf_calls_per_frame when a tracker reports ``apf_called``.
@@ -100,6 +161,8 @@ def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np
         out["mismatch"] = mismatch_metrics(points, seq.gt.joint_names,
                                            seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
         out["oracle"] = oracle_metrics(body, seq, F)
+    if seq.gt.surface is not None:
+        out.update(surface_run_metrics(body, seq, chis, alpha))
     if scores["unscored"]:
         out["unscored_joints"] = scores["unscored"]
     landmarks = LandmarkSet(body)
