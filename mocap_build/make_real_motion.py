@@ -5,6 +5,9 @@ build extra (bash scripts/install_build_deps.sh) and the clips (../shared/data/r
 
     ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python -m mocap_build.make_real_motion \\
         --clips ../shared/data/real-motion --out data/real_motion
+
+``--surface-only`` adds only the true surface (mocap_build/mismatch/surface.py) to the existing
+sequences, re-posing the body without re-rendering (their masks and the rest of gt.npz stay).
 """
 
 from __future__ import annotations
@@ -88,11 +91,26 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=keys, choices=keys)
     ap.add_argument("--sheet", default="docs/img/real_motion_contact_sheet.png",
                     help="contact sheet of every sequence ('' for none)")
+    ap.add_argument("--surface-only", action="store_true",
+                    help="only add the true surface (gt.npz surface, surface_faces) to the existing "
+                         "sequences: re-posed, nothing re-rendered, the rest of gt.npz and the masks kept")
     args = ap.parse_args()
     t0 = time.perf_counter()
     model = load_anny()
     print(f"anny model ready in {time.perf_counter() - t0:.0f} s")
     out = Path(args.out)
+    if args.surface_only:
+        from mocap_build.mismatch.surface import add_surface, surface_subset
+
+        subset = surface_subset(model)
+        for key in args.only:
+            spec = rm.sequence_spec(key)
+            r = rm.render(spec, Path(args.clips), model, render_frames=[])
+            rep = add_surface(out / spec.split / spec.name, r.vertices, r.joints, r.faces, subset)
+            print(f"{key}: surface {len(subset.bary)} points, {len(subset.faces)} faces; joints "
+                  f"match to {rep['joints_max_diff_m']:.1e} m; kept {', '.join(rep['kept'])}")
+        print(f"done in {time.perf_counter() - t0:.0f} s")
+        return
     index_path = out / "index.json"
     index = json.loads(index_path.read_text())["sequences"] if index_path.is_file() else {}
     rows = []
