@@ -18,8 +18,8 @@ the joint oracle's pose of the frame where that starts closer). The Jacobians ar
 differences of the float64 body, all columns posed in one batch.
 
 Cost: a few seconds a frame (the closest-point queries dominate), so a run scores the oracle on
-every ``stride``-th frame (:class:`SurfaceOracleSettings`, default every 4th of the run's frames:
-15 of 60).
+every ``stride``-th frame (:class:`SurfaceOracleSettings`, default every 6th of the run's frames:
+10 of 60: 0, 6, ..., 54), fitting every 5th of our vertices and every 2nd true point.
 """
 
 from __future__ import annotations
@@ -41,17 +41,19 @@ class SurfaceOracleSettings:
     """stride: score every stride-th frame (0, stride, 2 stride, ...); shape_frames: frames the
     shape is fitted on; rounds: correspondence updates per fit; max_nfev: evaluations per round;
     shape_bound: |alpha| bound; step: forward-difference step (m, rad, shape units); tol: a fit
-    stops when a round lowers the cost by less than this fraction; vertex_stride: every
-    vertex_stride-th of our vertices is fitted to the true surface (all are scored)."""
+    stops when a round lowers the cost by less than this fraction; vertex_stride, point_stride:
+    every vertex_stride-th of our vertices and every point_stride-th true point are fitted
+    (all are scored)."""
 
-    stride: int = 4
-    shape_frames: int = 4
+    stride: int = 6
+    shape_frames: int = 3
     rounds: int = 4
-    max_nfev: int = 30
+    max_nfev: int = 10
     shape_bound: float = 3.0
     step: float = 1e-6
     tol: float = 1e-3
-    vertex_stride: int = 2
+    vertex_stride: int = 5
+    point_stride: int = 2
 
 
 @dataclass(frozen=True)
@@ -79,11 +81,12 @@ class _Correspondences:
     point to point at weight :data:`POINT_WEIGHT` (it keeps the correspondences from sliding)."""
 
     def __init__(self, faces: np.ndarray, used: np.ndarray, verts: np.ndarray, true_points: np.ndarray,
-                 true_faces: np.ndarray | None, tree: cKDTree | None):
-        _, tri, bary = closest_points_on_mesh(true_points, verts, faces)
+                 true_faces: np.ndarray | None, tree: cKDTree | None, point_stride: int = 1):
+        fitted = true_points[::point_stride]
+        _, tri, bary = closest_points_on_mesh(fitted, verts, faces)
         self.corner = faces[tri]                          # (N, 3) our vertex ids
         self.bary = bary
-        self.p = true_points
+        self.p = fitted
         self.m = None
         if true_faces is None:
             self.c = true_points[tree.query(verts[used])[1]]
@@ -94,7 +97,7 @@ class _Correspondences:
             n = np.cross(tri_pts[:, 1] - tri_pts[:, 0], tri_pts[:, 2] - tri_pts[:, 0])
             self.m = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-15)
         self.used = used
-        self.wf = 1.0 / np.sqrt(len(true_points))
+        self.wf = 1.0 / np.sqrt(len(fitted))
         self.wb = 1.0 / np.sqrt(len(used))
 
     def residual(self, verts: np.ndarray) -> np.ndarray:
@@ -139,7 +142,8 @@ def _fit_shape(body: BodyModel, truth: np.ndarray, true_faces, alpha: np.ndarray
 
     for _ in range(s.rounds):
         V = verts_of(x[n * D:], x[:n * D].reshape(n, D))
-        cors = [_Correspondences(faces, used, V[f], truth[f], true_faces, trees[f]) for f in range(n)]
+        cors = [_Correspondences(faces, used, V[f], truth[f], true_faces, trees[f], s.point_stride)
+                for f in range(n)]
 
         def residual(y, cors=cors):
             Vy = verts_of(y[n * D:], y[:n * D].reshape(n, D))
@@ -182,7 +186,7 @@ def _fit_pose(shaped, faces, used, truth: np.ndarray, true_faces, tree, chi: np.
     x = _clip(chi, lo_d, hi_d)
     last = np.inf
     for _ in range(s.rounds):
-        cor = _Correspondences(faces, used, shaped.vertices(x)[0], truth, true_faces, tree)
+        cor = _Correspondences(faces, used, shaped.vertices(x)[0], truth, true_faces, tree, s.point_stride)
 
         def jacobian(y, cor=cor):
             P = np.vstack([y, y + s.step * np.eye(D)])
