@@ -17,7 +17,8 @@ def test_surface_oracle_recovers_a_known_shape_and_pose_of_our_body(body):
     truth = b64.shaped(alpha).vertices(chi)                        # "the true surface": (F, V, 3)
     start_chi = chi + rng.normal(0, 0.05, chi.shape)
     start_alpha = alpha + rng.normal(0, 0.3, alpha.shape)
-    s = SurfaceOracleSettings(stride=1, shape_frames=2, rounds=8, max_nfev=20)
+    s = SurfaceOracleSettings(stride=1, shape_frames=2, rounds=8, max_nfev=30, tol=1e-6, vertex_stride=2,
+                              point_stride=1)
     fit = fit_surface_oracle(body, truth, np.asarray(body.faces), start_alpha, start_chi, s)
     m = fit.metrics
     assert m["surface_to_mesh_mm"] < 0.5 and m["mesh_to_surface_mm"] < 0.5, m
