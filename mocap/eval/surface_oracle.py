@@ -19,7 +19,10 @@ differences of the float64 body, all columns posed in one batch.
 
 Cost: a few seconds a frame (the closest-point queries dominate), so a run scores the oracle on
 every ``stride``-th frame (:class:`SurfaceOracleSettings`, default every 6th of the run's frames:
-10 of 60: 0, 6, ..., 54), fitting every 5th of our vertices and every 2nd true point.
+10 of 60: 0, 6, ..., 54), fitting every 5th of our vertices and every 2nd true point: ~70 s of
+one core per sequence. On dev/walk_heavy_man it reaches 6.85 mm (true surface -> our mesh);
+denser settings (all true points, every 2nd vertex, 8 rounds of 30 evaluations for the poses
+too: ~160 s) 6.43 mm, so the default's floor is ~0.4 mm high there.
 """
 
 from __future__ import annotations
@@ -43,7 +46,8 @@ class SurfaceOracleSettings:
     shape_bound: |alpha| bound; step: forward-difference step (m, rad, shape units); tol: a fit
     stops when a round lowers the cost by less than this fraction; vertex_stride, point_stride:
     every vertex_stride-th of our vertices and every point_stride-th true point are fitted
-    (all are scored)."""
+    (all are scored); shape_rounds, shape_max_nfev: rounds and evaluations of the joint shape
+    fit (the floor depends on it most)."""
 
     stride: int = 6
     shape_frames: int = 3
@@ -51,8 +55,10 @@ class SurfaceOracleSettings:
     max_nfev: int = 10
     shape_bound: float = 3.0
     step: float = 1e-6
-    tol: float = 1e-3
+    tol: float = 1e-5
     vertex_stride: int = 5
+    shape_rounds: int = 8
+    shape_max_nfev: int = 30
     point_stride: int = 2
 
 
@@ -140,7 +146,7 @@ def _fit_shape(body: BodyModel, truth: np.ndarray, true_faces, alpha: np.ndarray
     def verts_of(a, c):
         return body.shaped(a).vertices(c)
 
-    for _ in range(s.rounds):
+    for _ in range(s.shape_rounds):
         V = verts_of(x[n * D:], x[:n * D].reshape(n, D))
         cors = [_Correspondences(faces, used, V[f], truth[f], true_faces, trees[f], s.point_stride)
                 for f in range(n)]
@@ -171,7 +177,7 @@ def _fit_shape(body: BodyModel, truth: np.ndarray, true_faces, alpha: np.ndarray
             return J
 
         r = least_squares(residual, x, jac=jacobian, bounds=(lo, hi), method="trf", tr_solver="exact",
-                          max_nfev=s.max_nfev)
+                          max_nfev=s.shape_max_nfev)
         x = r.x
         if r.cost > (1 - s.tol) * last:
             break
