@@ -5,6 +5,9 @@ build extra (bash scripts/install_build_deps.sh) and the clips (../shared/data/r
 
     ANNY_CACHE_DIR=~/.cache/anny .venv-build/bin/python -m mocap_build.make_real_motion \\
         --clips ../shared/data/real-motion --out data/real_motion
+
+``--surface-only`` adds only the true surface (mocap_build/mismatch/surface.py) to the existing
+sequences, re-posing the body without re-rendering (their masks and the rest of gt.npz stay).
 """
 
 from __future__ import annotations
@@ -37,6 +40,11 @@ https://github.com/BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset.
 These renders are Adapted Material of that dataset (its joint positions were retargeted onto
 anny's skeleton, resampled to 60-frame windows and rendered): they are distributed under
 CC BY-NC 4.0 — NON-COMMERCIAL use only, with this attribution. No clip is included.
+
+True surface: gt.npz also holds `surface` (60, 2002, 3) float32 metres, points of anny's
+outer skin posed like the rendered mesh (its mesh decimated once to 4000 faces, each point a
+fixed barycentric combination of the posed full mesh; mocap_build/mismatch/surface.py), and
+`surface_faces` (4000, 3): the same licence as the rest of the sequence.
 
 Split (mocap/clips/split.yaml): dev/ uses motion types the pose prior trains on (tuning
 allowed); test/ uses held-out motion types (never trained on, never tuned on; report only).
@@ -88,11 +96,27 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=keys, choices=keys)
     ap.add_argument("--sheet", default="docs/img/real_motion_contact_sheet.png",
                     help="contact sheet of every sequence ('' for none)")
+    ap.add_argument("--surface-only", action="store_true",
+                    help="only add the true surface (gt.npz surface, surface_faces) to the existing "
+                         "sequences: re-posed, nothing re-rendered, the rest of gt.npz and the masks kept")
     args = ap.parse_args()
     t0 = time.perf_counter()
     model = load_anny()
     print(f"anny model ready in {time.perf_counter() - t0:.0f} s")
     out = Path(args.out)
+    if args.surface_only:
+        from mocap_build.mismatch.surface import add_surface, surface_subset
+
+        subset = surface_subset(model)
+        for key in args.only:
+            spec = rm.sequence_spec(key)
+            r = rm.render(spec, Path(args.clips), model, render_frames=[])
+            rep = add_surface(out / spec.split / spec.name, r.vertices, r.joints, r.faces, subset)
+            print(f"{key}: surface {len(subset.bary)} points, {len(subset.faces)} faces; joints "
+                  f"match to {rep['joints_max_diff_m']:.1e} m; kept {', '.join(rep['kept'])}")
+        (out / "NOTICE.txt").write_text(NOTICE)
+        print(f"done in {time.perf_counter() - t0:.0f} s")
+        return
     index_path = out / "index.json"
     index = json.loads(index_path.read_text())["sequences"] if index_path.is_file() else {}
     rows = []

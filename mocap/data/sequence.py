@@ -65,7 +65,11 @@ class GroundTruth:
     Several people: ``person_names`` (P,) non-empty, ``joints`` (F, P, J, 3) and ``joint_valid``
     (F, P, J) (a person absent in a frame: invalid there); no ``chi``, ``alpha`` or ``markers``.
     :meth:`person` gives one person's ground truth (scored per person with the best assignment
-    of tracks to people, :mod:`mocap.eval.people`)."""
+    of tracks to people, :mod:`mocap.eval.people`).
+
+    The true body surface (optional, one person): ``surface`` (F, N, 3) world metres, points on
+    it per frame, and ``surface_faces`` (M, 3) int when the points are a mesh's vertices
+    (scored by :mod:`mocap.eval.surface`)."""
 
     alpha: np.ndarray | None
     chi: np.ndarray | None
@@ -78,6 +82,22 @@ class GroundTruth:
     joint_valid: np.ndarray | None = None
     skeleton: str = ""
     person_names: tuple[str, ...] = ()
+    surface: np.ndarray | None = None
+    surface_faces: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        s, faces = self.surface, self.surface_faces
+        if s is None:
+            if faces is not None:
+                raise ValueError("ground truth: field 'surface_faces' needs 'surface'")
+            return
+        if s.ndim != 3 or s.shape[2] != 3 or s.shape[1] < 1 or len(s) != len(self.joints):
+            raise ValueError(f"ground truth: field 'surface' must be ({len(self.joints)}, N, 3), "
+                             f"got {s.shape}")
+        if faces is not None and (faces.ndim != 2 or faces.shape[1] != 3
+                                  or (faces.size and (faces.min() < 0 or faces.max() >= s.shape[1]))):
+            raise ValueError(f"ground truth: field 'surface_faces' must be (M, 3) indices of the "
+                             f"{s.shape[1]} surface points, got {faces.shape}")
 
     @property
     def num_frames(self) -> int:

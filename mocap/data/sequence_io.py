@@ -18,7 +18,10 @@
                            optional joint_valid (F, J) bool and skeleton (a key of
                            mocap.body.skeletons.SKELETONS; "" = mocap's own joint names);
                            several people: joints (F, P, J, 3), joint_valid (F, P, J),
-                           optional person_names (P,) (scored per person, best assignment)
+                           optional person_names (P,) (scored per person, best assignment);
+                           optional, one person: surface (F, N, 3) float, world metres, points
+                           on the true body surface per frame, and surface_faces (M, 3) int
+                           when they are a mesh's vertices (mocap.eval.surface scores them)
 
 Masks are foreground where the pixel is non-zero in a 0/1 image (maximum 1) and above 127
 otherwise, so 0/1, 0/255 and 1-bit PNGs load the same; a view whose masks are all empty is
@@ -271,17 +274,8 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
             raise SequenceFormatError(f"{folder / 'calibration.json'}: camera {cam.name!r} is "
                                       f"{cam.width}x{cam.height}, sequence.json field "
                                       f"'image_size' says {w}x{h}")
-    masks = _read_images(folder, "masks", views, frames, w, h, threads) if content.get("masks") else None
-    if masks is not None and frames:
-        empty = [v for c, v in enumerate(views) if not masks[:, c].any()]
-        if empty:
-            warnings.warn(f"{folder / 'masks'}: the masks of view(s) {', '.join(empty)} are empty in "
-                          "every frame (wrong threshold or segmentation failed?)", stacklevel=2)
-    imgs = (_read_images(folder, "images", views, frames, w, h, threads)
-            if content.get("images") and images else None)
     dropped: dict[str, int] = {}
-    det = (_load_detections(folder / "detections.json", views, frames, nonfinite, dropped)
-           if content.get("detections") else None)
+    # the ground truth first: a bad one is refused before any image is read
     gt_path = Path(gt) if gt is not None else folder / "gt.npz"
     if gt_opted_out(gt):
         truth = None
@@ -290,6 +284,16 @@ def load_sequence(folder: str | Path, *, images: bool = True, threads: int = 4,
     else:
         truth = (load_ground_truth_of_data(gt_path, frames, nonfinite, dropped, listed=True)
                  if content.get("gt") else None)
+    masks = _read_images(folder, "masks", views, frames, w, h, threads) if content.get("masks") else None
+    if masks is not None and frames:
+        empty = [v for c, v in enumerate(views) if not masks[:, c].any()]
+        if empty:
+            warnings.warn(f"{folder / 'masks'}: the masks of view(s) {', '.join(empty)} are empty in "
+                          "every frame (wrong threshold or segmentation failed?)", stacklevel=2)
+    imgs = (_read_images(folder, "images", views, frames, w, h, threads)
+            if content.get("images") and images else None)
+    det = (_load_detections(folder / "detections.json", views, frames, nonfinite, dropped)
+           if content.get("detections") else None)
     meta = dict(info.get("meta", {}))
     if truth is not None:
         meta["gt"] = str(gt_path)
@@ -357,7 +361,7 @@ def write_ground_truth(g: GroundTruth, path: Path) -> None:
     """gt.npz of a ground truth (fields that are None are left out)."""
     arrays = {"joints": g.joints, "joint_names": np.array(g.joint_names), "body": np.array(g.body),
               "skeleton": np.array(g.skeleton)}
-    for key in ("alpha", "chi", "markers", "joint_valid"):
+    for key in ("alpha", "chi", "markers", "joint_valid", "surface", "surface_faces"):
         if getattr(g, key) is not None:
             arrays[key] = getattr(g, key)
     for key in ("dof_names", "marker_names"):
@@ -394,13 +398,16 @@ def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: st
             joints = z["joints"]
             if not np.issubdtype(joints.dtype, np.number):
                 raise SequenceFormatError(f"{path}: field 'joints' must be numbers, got dtype {joints.dtype}")
+            surface, surface_faces = _surface(path, get("surface"), get("surface_faces"), joints.shape,
+                                              frames)
             gt = GroundTruth(alpha=get("alpha"), chi=get("chi"), joints=joints.astype(np.float64),
                              markers=get("markers"), dof_names=names("dof_names"),
                              joint_names=names("joint_names"), marker_names=names("marker_names"),
                              body=str(z["body"]) if "body" in z else "",
                              joint_valid=None if "joint_valid" not in z else z["joint_valid"].astype(bool),
                              skeleton=str(z["skeleton"]) if "skeleton" in z else "",
-                             person_names=names("person_names"))
+                             person_names=names("person_names"), surface=surface,
+                             surface_faces=surface_faces)
     except (ValueError, OSError, EOFError) as exc:
         if isinstance(exc, SequenceFormatError):
             raise
@@ -481,3 +488,38 @@ def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: st
     return gt
 
 
+def _surface(path: Path, surface: np.ndarray | None, faces: np.ndarray | None, joints_shape: tuple,
+             frames: int | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The optional true surface of a gt.npz, validated: surface (F, N, 3) finite numbers with F
+    the frames of 'joints' (and of the data), surface_faces (M, 3) integer indices of its points."""
+    if surface is None:
+        if faces is not None:
+            raise SequenceFormatError(f"{path}: field 'surface_faces' {faces.shape} without field 'surface'")
+        return None, None
+    F = joints_shape[0] if frames is None else frames
+    if (not np.issubdtype(surface.dtype, np.number) or surface.ndim != 3 or surface.shape[2] != 3
+            or surface.shape[1] < 1):
+        raise SequenceFormatError(f"{path}: field 'surface' must be (F, N, 3) numbers (points on the "
+                                  f"true surface per frame, metres), got shape {surface.shape} dtype "
+                                  f"{surface.dtype}")
+    if len(joints_shape) == 4:
+        raise SequenceFormatError(f"{path}: field 'surface' {surface.shape} is for one person, 'joints' "
+                                  f"{joints_shape} has several")
+    if len(surface) != F or len(surface) != joints_shape[0]:
+        raise SequenceFormatError(f"{path}: field 'surface' has shape {surface.shape}: {len(surface)} "
+                                  f"frames, the sequence has {F} (one surface per frame)")
+    if not np.isfinite(surface).all():
+        where = tuple(int(i) for i in np.argwhere(~np.isfinite(surface))[0])
+        raise SequenceFormatError(f"{path}: field 'surface' {surface.shape} has NaN/Inf (first at frame "
+                                  f"{where[0]}, point {where[1]})")
+    if faces is None:
+        return surface.astype(np.float64), None
+    if not np.issubdtype(faces.dtype, np.integer) or faces.ndim != 2 or faces.shape[1] != 3:
+        raise SequenceFormatError(f"{path}: field 'surface_faces' must be (M, 3) integers, got shape "
+                                  f"{faces.shape} dtype {faces.dtype}")
+    N = surface.shape[1]
+    if faces.size and (faces.min() < 0 or faces.max() >= N):
+        raise SequenceFormatError(f"{path}: field 'surface_faces' {faces.shape} indexes points "
+                                  f"{faces.min()}..{faces.max()}, out of range for 'surface' {surface.shape} "
+                                  f"(0..{N - 1})")
+    return surface.astype(np.float64), faces.astype(np.int64)

@@ -64,7 +64,9 @@ def oracle_settings(config: Mapping | OracleSettings | None) -> OracleSettings:
     return OracleSettings(**config)
 
 
-_ORACLES: dict = {}
+_ORACLES: dict = {}          # key -> the joint oracle's metrics
+_FITS: dict = {}             # key -> the joint oracle's fit (the surface oracle starts from it)
+_SURFACE_ORACLES: dict = {}  # key -> the surface oracle's metrics
 
 
 def oracle_key(body: BodyModel, gt, F: int) -> str:
@@ -81,35 +83,118 @@ def oracle_key(body: BodyModel, gt, F: int) -> str:
     return h.hexdigest()[:32]
 
 
-def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None,
-                   settings: OracleSettings | None = None) -> dict:
-    """The oracle's metrics (:func:`mocap.eval.mismatch.fit_oracle`) on the first ``frames``
-    frames of ``seq``'s ground truth (all: None), computed once per body and ground truth in a
-    process, and once per cache folder when ``settings.cache`` names one (the file
-    ``oracle-<key>.json``, :func:`oracle_key`; written to a temporary name and renamed, so runs in
-    parallel never read half a file)."""
-    settings = settings or OracleSettings()
+def oracle_fit(body: BodyModel, seq: Sequence, frames: int | None = None):
+    """The oracle (:func:`mocap.eval.mismatch.fit_oracle`, :data:`ORACLE_METHOD`) on the first
+    ``frames`` frames of ``seq``'s ground truth (all: None), fitted once per body and ground
+    truth in a process."""
     gt = seq.gt
     F = gt.num_frames if frames is None else frames
     key = oracle_key(body, gt, F)
-    if key in _ORACLES:
-        return _ORACLES[key]
-    path = None if settings.cache is None else Path(settings.cache) / f"oracle-{key}.json"
+    if key not in _FITS:
+        _FITS[key] = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F), gt.skeleton or None,
+                                method=ORACLE_METHOD)
+        _ORACLES.setdefault(key, _FITS[key].metrics)
+    return _FITS[key]
+
+
+def _cached(path: Path | None, key: str, compute, memo: dict, **info) -> dict:
+    """``memo[key]``, else the metrics stored in ``path`` (by an earlier run), else ``compute()``,
+    written there (to a temporary name, renamed: runs in parallel never read half a file)."""
+    if key in memo:
+        return memo[key]
     if path is not None and path.is_file():
         try:
-            _ORACLES[key] = json.loads(path.read_text())["metrics"]
-            return _ORACLES[key]
+            memo[key] = json.loads(path.read_text())["metrics"]
+            return memo[key]
         except (OSError, ValueError, KeyError):
             pass                                         # unreadable: fitted again, rewritten
-    metrics = fit_oracle(body, gt.joint_names, gt.joints[:F], _valid(gt, F), gt.skeleton or None,
-                         method=ORACLE_METHOD).metrics
+    metrics = compute()
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps({"key": key, "data": seq.name, "frames": F, "metrics": metrics}))
+        tmp.write_text(json.dumps({"key": key, **info, "metrics": metrics}))
         os.replace(tmp, path)
-    _ORACLES[key] = metrics
+    memo[key] = metrics
     return metrics
+
+
+def oracle_metrics(body: BodyModel, seq: Sequence, frames: int | None = None,
+                   settings: OracleSettings | None = None) -> dict:
+    """The oracle's metrics (:func:`oracle_fit`) on the first ``frames`` frames of ``seq``'s
+    ground truth (all: None), computed once per body and ground truth in a process, and once per
+    cache folder when ``settings.cache`` names one (the file ``oracle-<key>.json``,
+    :func:`oracle_key`)."""
+    settings = settings or OracleSettings()
+    F = seq.gt.num_frames if frames is None else frames
+    key = oracle_key(body, seq.gt, F)
+    path = None if settings.cache is None else Path(settings.cache) / f"oracle-{key}.json"
+    return _cached(path, key, lambda: oracle_fit(body, seq, F).metrics, _ORACLES, data=seq.name, frames=F)
+
+
+def surface_oracle_metrics(body: BodyModel, seq: Sequence, frames: int,
+                           settings: OracleSettings | None = None) -> dict | None:
+    """The surface oracle (:func:`mocap.eval.surface_oracle.fit_surface_oracle`) on the first
+    ``frames`` frames of the true surface, from the joint oracle's fit (ground truth by name
+    with both hips) or from the ground truth's own shape and poses (data our body generated);
+    None where neither is there. Fitted once per body and ground truth in a process, and once per
+    cache folder (``surface-oracle-<key>.json``) when ``settings.cache`` names one."""
+    from mocap.eval.surface_oracle import fit_surface_oracle
+
+    settings = settings or OracleSettings()
+    gt = seq.gt
+    own = gt.chi is not None and gt.alpha is not None and gt.chi.shape[1] == body.num_dofs
+    by_name = gt.chi is None and {"l_hip", "r_hip"} <= set(NameScorer(body, gt).mapping.values())
+    if not own and not by_name:
+        return None
+    h = hashlib.sha256(oracle_key(body, gt, frames).encode())
+    h.update(np.ascontiguousarray(gt.surface[:frames], np.float64).tobytes())
+    h.update(b"-" if gt.surface_faces is None else np.ascontiguousarray(gt.surface_faces, np.int64).tobytes())
+    key = h.hexdigest()[:32]
+
+    def compute():
+        if own:
+            alpha0, chi0 = gt.alpha, gt.chi[:frames]
+        else:
+            fit = oracle_fit(body, seq, frames)
+            alpha0, chi0 = fit.alpha, fit.chi
+        return fit_surface_oracle(body, gt.surface[:frames], gt.surface_faces, alpha0, chi0).metrics
+
+    path = None if settings.cache is None else Path(settings.cache) / f"surface-oracle-{key}.json"
+    return _cached(path, key, compute, _SURFACE_ORACLES, data=seq.name, frames=frames)
+
+
+def surface_run_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray,
+                        oracle: OracleSettings | None = None) -> dict:
+    """The surface part of :func:`accuracy_metrics` (a ground truth with ``surface``):
+    :func:`mocap.eval.surface.surface_metrics` of the tracked mesh (``surface_to_mesh_mm``,
+    ``..._p90_mm``, ``mesh_to_surface_mm``, ``..._p90_mm``, ``surface_per_frame``); with masks,
+    the silhouette overlap (``silhouette_iou``, ``..._per_view``, ``..._per_frame``); where
+    ``oracle.enabled``, the surface oracle's (``surface_oracle_mm``, ``surface_oracle_p90_mm``,
+    ``surface_oracle_mesh_to_surface_mm``, ``surface_oracle``: all its metrics and frames); and
+    ``surface_eval_sec`` (wall and process CPU seconds spent on the metrics and on the oracle; the
+    oracle's once per ground truth in a process or cache folder, 0 when it was cached)."""
+    import time
+
+    from mocap.eval.surface import iou_metrics, silhouette_iou, surface_metrics
+
+    oracle = oracle or OracleSettings()
+    F = len(chis)
+    t0, c0 = time.perf_counter(), time.process_time()
+    verts = per_shape(body, alpha, chis, lambda shaped, c: shaped.vertices(c)).astype(np.float64)
+    out = surface_metrics(seq.gt.surface[:F], verts, body.faces, seq.gt.surface_faces)
+    if seq.masks is not None:
+        out.update(iou_metrics(silhouette_iou(seq.rig, body.faces, verts, seq.masks[:F]), seq.rig.names))
+    t1, c1 = time.perf_counter(), time.process_time()
+    fit = surface_oracle_metrics(body, seq, F, oracle) if oracle.enabled else None
+    if fit is not None:
+        out["surface_oracle_mm"] = fit["surface_to_mesh_mm"]
+        out["surface_oracle_p90_mm"] = fit["surface_to_mesh_p90_mm"]
+        out["surface_oracle_mesh_to_surface_mm"] = fit["mesh_to_surface_mm"]
+        out["surface_oracle"] = fit
+    t2, c2 = time.perf_counter(), time.process_time()
+    out["surface_eval_sec"] = {"metrics": round(t1 - t0, 3), "oracle": round(t2 - t1, 3),
+                               "metrics_cpu": round(c1 - c0, 3), "oracle_cpu": round(c2 - c1, 3)}
+    return out
 
 
 def frames_without_detections(detections, frames: int) -> list[int]:
@@ -130,7 +215,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     frames_lost (after frame 0, raw error above 150 mm); for ground truth by name only (data our
     model did not generate) ``mismatch`` (raw / offset-removed / limb errors) and ``oracle`` (the
     same for our body fitted to the true joints: :mod:`mocap.eval.mismatch`); mmta,
-    mmtp_mm (when ground-truth markers match the default landmark set); with detections,
+    mmtp_mm (when ground-truth markers match the default landmark set); with a true surface the
+    surface metrics of :func:`surface_run_metrics`; with detections,
     frames_without_detections (frames tracked with no detection in any view: blind); without
     ground truth but with detections, the keypoint metrics of
     :func:`mocap.eval.keypoint_metrics.keypoint_run_metrics` (reprojection error per view,
@@ -198,6 +284,8 @@ def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np
                                            seq.gt.joints[:F], _valid(seq.gt, F), seq.gt.skeleton or None)
         if oracle.enabled:
             out["oracle"] = oracle_metrics(body, seq, F, oracle)
+    if seq.gt.surface is not None:
+        out.update(surface_run_metrics(body, seq, chis, alpha, oracle))
     if scores["unscored"]:
         out["unscored_joints"] = scores["unscored"]
     landmarks = LandmarkSet(body)

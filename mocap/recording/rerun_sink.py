@@ -10,13 +10,15 @@ summary
                                                every frame's scalars
     plots/motion/chi/<dof>, plots/decisions/..., log/decisions, log/shape, run/shape
                                                the motion and the tracker's decisions (motion_log.py)
-    world/body/estimate, world/skeleton/estimate|truth, world/landmarks/estimate
-                                               the last tracked frame only (the final body)
+    world/body/estimate, world/skeleton/estimate|truth, world/landmarks/estimate,
+    world/surface/truth                        the last tracked frame only (the final body)
 standard (default): everything of summary, and on every ``every``-th frame
     world/body/estimate                        estimated mesh: triangles and colours once (static),
                                                then vertex positions only
     world/skeleton/estimate|truth              bones as line strips
     world/landmarks/estimate                   3D landmarks (marker / keypoint runs)
+    world/surface/truth                        the true body surface as points (data whose gt.npz
+                                               has ``surface``), beside the estimated mesh
     views/<view>/silhouette_diff               Fig. 8 of Zhang et al. at ``scale`` (a segmentation
                                                image: green = observed only, purple = estimate
                                                only, grey = both)
@@ -196,6 +198,10 @@ class RerunSink:
                     static=True)
         rec.log("world/landmarks/estimate", rr.Points3D.from_fields(radii=0.02, colors=[255, 60, 60]),
                 static=True)
+        self.surface = seq.gt.surface if seq.gt is not None else None
+        if self.surface is not None:
+            rec.log("world/surface/truth", rr.Points3D.from_fields(radii=0.004, colors=[60, 220, 255]),
+                    static=True)
         if s.views:
             rec.log("views", rr.AnnotationContext([(0, "none", (0, 0, 0, 0))] + [
                 (k, name, DIFF_COLORS[name]) for k, name in DIFF_CLASSES.items()]), static=True)
@@ -274,6 +280,8 @@ class RerunSink:
                          strips=np.stack([J[parents[1:]], J[1:]], axis=1))          # (J-1, 2, 3)
         if landmarks is not None:
             cols.add("world/landmarks/estimate", rr.Points3D, f, positions=np.array(landmarks, np.float32))
+        if self.surface is not None and f < len(self.surface):
+            cols.add("world/surface/truth", rr.Points3D, f, positions=np.array(self.surface[f], np.float32))
 
     def _log_particles(self, f, alpha, particles) -> None:
         shaped = self._shaped(alpha)

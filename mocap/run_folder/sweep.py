@@ -274,26 +274,42 @@ MISMATCH_METRICS = {
 }
 
 
+# columns of data with a true surface (metrics.json, mocap.eval.surface): key -> (label, value of
+# one run or None, decimals)
+SURFACE_METRICS = {
+    "surface_to_mesh_mm": ("surface → tracked (mm)", lambda r: r.get("surface_to_mesh_mm"), 1),
+    "surface_to_mesh_p90_mm": ("surface → tracked p90 (mm)", lambda r: r.get("surface_to_mesh_p90_mm"), 1),
+    "mesh_to_surface_mm": ("tracked → surface (mm)", lambda r: r.get("mesh_to_surface_mm"), 1),
+    "surface_oracle_mm": ("surface oracle (mm)", lambda r: r.get("surface_oracle_mm"), 1),
+    "x_surface_oracle": ("× surface oracle", lambda r: (r["surface_to_mesh_mm"] / r["surface_oracle_mm"]
+                                                       if r.get("surface_oracle_mm") else None), 2),
+    "silhouette_iou": ("silhouette IoU", lambda r: r.get("silhouette_iou"), 3),
+}
+
+
 def _mismatch_cells(row: dict, rs: list[dict]) -> None:
-    for key, (_, get) in MISMATCH_METRICS.items():
+    getters = [*((k, get) for k, (_, get) in MISMATCH_METRICS.items()),
+               *((k, get) for k, (_, get, _) in SURFACE_METRICS.items())]
+    for key, get in getters:
         vals = [get(r) for r in rs]
         if vals and all(v is not None for v in vals):
             row[key], row[key + "_std"] = _mean_std(vals)
 
 
-def _pm(mean: float, std: float | None) -> str:
-    return f"{mean:.1f}" if std is None else f"{mean:.1f} ± {std:.1f}"
+def _pm(mean: float, std: float | None, decimals: int = 1) -> str:
+    return f"{mean:.{decimals}f}" if std is None else f"{mean:.{decimals}f} ± {std:.{decimals}f}"
 
 
 def markdown(rows: list[dict], problems: list[tuple[str, str]], title: str) -> str:
     extras = [(k, label) for k, label in (("pcp", "PCP"), ("apf_calls_per_frame", "APF calls / frame"),
                                           ("mmta", "MMTA"), ("mmtp_mm", "MMTP (mm)"), *NO_GT_METRICS)
               if any(k in r for r in rows)]
-    mism = [(k, label) for k, (label, _) in MISMATCH_METRICS.items() if any(k in r for r in rows)]
+    mism = [(k, label, 1) for k, (label, _) in MISMATCH_METRICS.items() if any(k in r for r in rows)]
+    mism += [(k, label, d) for k, (label, _, d) in SURFACE_METRICS.items() if any(k in r for r in rows)]
     show_over = any(r.get("overrides", "-") != "-" for r in rows)
     head = ["tracker", "data", *(["overrides"] if show_over else []), "particles x layers", "energy terms",
             "seeds", "joint error (mm)", "s / frame", "energy evals / frame", *(label for _, label in extras),
-            *(label for _, label in mism)]
+            *(label for _, label, _ in mism)]
     out = [f"# {title}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         err = _pm(r["mpjpe_mean_mm"], r["mpjpe_std_mm"]) if "mpjpe_mean_mm" in r else "-"
@@ -301,7 +317,7 @@ def markdown(rows: list[dict], problems: list[tuple[str, str]], title: str) -> s
                  r["energy_terms"], str(r["seeds"]), err, f"{r['sec_per_frame']:.2f}",
                  f"{r['energy_evals_per_frame']:.0f}",
                  *(f"{r[k]:.2f}" if k in r else "-" for k, _ in extras),
-                 *(_pm(r[k], r[k + "_std"]) if k in r else "-" for k, _ in mism)]
+                 *(_pm(r[k], r[k + "_std"], d) if k in r else "-" for k, _, d in mism)]
         out.append("| " + " | ".join(cells) + " |")
     if problems:
         out += ["", "## Runs that failed or are missing", ""]

@@ -4,7 +4,8 @@
   (MPJPE, the table's headline) against time per frame (log axis), one marker per table row
   (tracker, its budget and the overrides that vary in the sweep), error bars mean ± std over
   seeds, the oracle (our body fitted to the true joints, ``metrics.json["oracle"]["raw_mm"]``)
-  as a dashed line where known.
+  as a dashed line where known; beside it, for data with a true surface, the surface error
+  (true surface -> tracked mesh, ``surface_to_mesh_mm``) with the surface oracle's line.
 - :func:`frames_figure` (``ablation_frames.png``): one panel per dataset; each row's per-frame
   error (``metrics.json["per_frame_mm"]``, frame 0 the initial pose), the mean over seeds as a
   line and their min–max as a band; the oracle's mean as a dashed line.
@@ -100,13 +101,13 @@ def _styles(names: Sequence[str]) -> dict[str, dict]:
             for i, n in enumerate(dict.fromkeys(names))}
 
 
-def _figure(n_panels: int):
+def _figure(n_panels: int, columns: int = MAX_COLUMNS):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    cols = min(max(n_panels, 1), MAX_COLUMNS)
+    cols = min(max(n_panels, 1), columns)
     nrows = max(1, math.ceil(n_panels / cols))
     fig, axes = plt.subplots(nrows, cols, figsize=(PANEL_IN[0] * cols, PANEL_IN[1] * nrows + 0.9),
                              dpi=DPI, layout="constrained", squeeze=False)
@@ -205,24 +206,31 @@ def tradeoff_figure(rows: Sequence[dict]):
     names = labels(rows)
     style = _styles(names)
     datasets = _datasets(rows)
-    fig, axes = _figure(len(datasets))
-    for ax, data in zip(axes, datasets, strict=True):
-        mine = [(r, n) for r, n in zip(rows, names, strict=True) if r.get("data", "") == data]
+    # beside each dataset's joint error, its surface error where the data has a true surface
+    panels = [(d, kind) for d in datasets for kind in ("joints", "surface")
+              if kind == "joints" or any("surface_to_mesh_mm" in r for r in rows if r.get("data", "") == d)]
+    fig, axes = _figure(len(panels), 2 if len(panels) > len(datasets) else MAX_COLUMNS)
+    for ax, (data, kind) in zip(axes, panels, strict=True):
+        mean_key, std_key, oracle_key = (("mpjpe_mean_mm", "mpjpe_std_mm", "oracle_mm") if kind == "joints"
+                                         else ("surface_to_mesh_mm", "surface_to_mesh_mm_std",
+                                               "surface_oracle_mm"))
+        mine = [(r, n) for r, n in zip(rows, names, strict=True)
+                if r.get("data", "") == data and mean_key in r]
         top = 0.0
         for r, n in mine:
-            std = r.get("mpjpe_std_mm")
-            ax.errorbar(r["sec_per_frame"], r["mpjpe_mean_mm"], yerr=[[std], [std]] if std else None,
+            std = r.get(std_key)
+            ax.errorbar(r["sec_per_frame"], r[mean_key], yerr=[[std], [std]] if std else None,
                         fmt=style[n]["marker"], color=style[n]["color"], ms=7, capsize=4, label=n)
-            top = max(top, r["mpjpe_mean_mm"] + (std or 0.0))
-        oracle = _oracle([r.get("oracle_mm") for r, _ in mine])
+            top = max(top, r[mean_key] + (std or 0.0))
+        oracle = _oracle([r.get(oracle_key) for r, _ in mine])
         if oracle is not None:
             ax.axhline(oracle, ls="--", color="0.3", lw=1.2, label="oracle")
             top = max(top, oracle)
         _plain_log_axis(ax, [r["sec_per_frame"] for r, _ in mine])
         ax.set_ylim(0, 1.12 * top if top > 0 else 1.0)
-        ax.set_title(data or "(unnamed data)")
+        ax.set_title((data or "(unnamed data)") + (" — surface" if kind == "surface" else ""))
         ax.set_xlabel("time per frame (s, log scale)")
-        ax.set_ylabel("joint error, MPJPE (mm)")
+        ax.set_ylabel("joint error, MPJPE (mm)" if kind == "joints" else "true surface → tracked mesh (mm)")
         ax.grid(True, which="both", alpha=0.3)
     _legend(fig, axes, _seed_note([r["seeds"] for r in rows]))
     return fig

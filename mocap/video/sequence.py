@@ -149,7 +149,7 @@ def _ground_truth_frames(gt, idx: list[int], path: str):
         raise ValueError(f"{path}: field 'joints' has {gt.num_frames} frames, the video frames tracked need "
                          f"frame {bad[0]} (frame 0: the first keypoint frame)")
     return replace(gt, **{k: None if getattr(gt, k) is None else getattr(gt, k)[idx]
-                          for k in ("joints", "joint_valid", "chi", "markers")})
+                          for k in ("joints", "joint_valid", "chi", "markers", "surface")})
 
 
 def video_sequence(*, body=None, path: str, **options) -> Sequence:

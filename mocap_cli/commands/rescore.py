@@ -3,7 +3,8 @@
 When the scoring changes (a ground-truth skeleton's mapping to our points, the oracle), the
 runs under ``multirun/`` keep the figures they were written with. This reads each run's
 motion.npz (the poses and shape it produced) and the data of its stored configuration, and
-rewrites the accuracy part of its metrics.json (:func:`mocap.eval.run_metrics.accuracy_metrics`);
+rewrites the accuracy part of its metrics.json (:func:`mocap.eval.run_metrics.accuracy_metrics`:
+with a true surface in the data, the surface metrics and the surface oracle too);
 speed, effort and initialisation figures are kept. The figures it replaces are kept under
 ``rescored.previous``. The recording keeps the metrics it was written with.
 
@@ -101,6 +102,11 @@ def main(argv: list[str] | None = None) -> int:
         if "oracle" in new:
             line += (f", oracle {old.get('oracle', {}).get('raw_mm', float('nan')):.1f} -> "
                      f"{new['oracle']['raw_mm']:.1f} mm")
+        if "surface_to_mesh_mm" in new:
+            line += (f", surface {old.get('surface_to_mesh_mm', float('nan')):.1f} -> "
+                     f"{new['surface_to_mesh_mm']:.1f} mm (oracle "
+                     f"{new.get('surface_oracle_mm', float('nan')):.1f}), IoU "
+                     f"{new.get('silhouette_iou', float('nan')):.3f}")
         print(line, flush=True)
     return 1 if failed else 0
 

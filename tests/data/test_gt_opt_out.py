@@ -59,7 +59,7 @@ def test_convert_without_videos_asks_for_the_fps(tmp_path, capsys):
 
 @pytest.mark.skipif(not (DEMO / "videos").is_dir(), reason="Pose2Sim demo data not present")
 def test_convert_reads_the_fps_of_the_videos(tmp_path, capsys):
-    from mocap.data.video import video_info
+    from mocap.video.frames import video_info
 
     assert main(["convert", str(DEMO), str(tmp_path / "out"), "--frames", "2"]) == 0
     seq = load_sequence(tmp_path / "out", images=False)
