@@ -96,6 +96,18 @@ def tables(clean_dir: Path, injected_dir: Path, tol_mm: float, tol_ratio: float,
                       f"{np.mean([m.get('apf_calls_per_frame', 0) for *_, m in rs]):.2f} | "
                       f"{np.mean([m['energy_evals_per_frame'] for *_, m in rs]):.0f} | "
                       f"{np.mean([m['sec_per_frame'] for *_, m in rs]):.2f} |")
+    seqs = sorted({s for (_, s, _) in clean})
+    lines += ["", "Joint error per sequence (mm, mean over seeds; x the oracle in brackets):", "",
+              "| APF inside the hybrid | " + " | ".join(s.removeprefix("real_") for s in seqs) + " |",
+              "|---|" + "---|" * len(seqs)]
+    for v, label in VARIANTS.items():
+        cells = []
+        for s in seqs:
+            ms = [m for (vv, ss, _), m in clean.items() if vv == v and ss == s]
+            ratio = np.mean([m["mpjpe_mm"] / m["oracle"]["raw_mm"] for m in ms]) if ms else 0.0
+            cells.append(f"{np.mean([m['mpjpe_mm'] for m in ms]):.1f} ({ratio:.1f})" if ms else "-")
+        if any(c != "-" for c in cells):
+            lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "### Injected failures (perturbation before frame "
               f"{next(iter(inj.values()))['recovery']['perturbation']['at_frame'] if inj else '?'})", "",
               f"Recovered: the joint error back within max({tol_mm:g} mm, {tol_ratio:g} x) of the clean "
