@@ -60,13 +60,13 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.fps is not None:
         check_fps(args.fps, "--fps")                # before anything is read or written
-    else:                   # the calibration's names are checked before any video is opened
+    elif any(p.is_file() for p in (Path(args.recording) / "videos").glob("*")):
+        # the fps from the videos: the calibration's camera names are checked before one is opened
         from mocap.cameras.calibration_io import load_calibration
         from mocap.data.openpose import _find_calibration
 
         root = Path(args.recording)
-        if root.is_dir():
-            load_calibration(root / args.calibration if args.calibration else _find_calibration(root))
+        load_calibration(root / args.calibration if args.calibration else _find_calibration(root))
     fps = args.fps if args.fps is not None else videos_fps(Path(args.recording))
     out = convert_pose2sim(args.recording, args.out, person=args.person, overwrite=args.overwrite,
                            layout=args.layout, fps=fps, frames=args.frames,

@@ -30,7 +30,8 @@ def test_views_with_empty_silhouettes_are_left_out_and_reported(body):
     seq = folder_sequence(body=body, path=str(BOX), images=False)
     masks = seq.masks[:3].copy()
     masks[:, [1, 2]] = False                                  # two views see nothing
-    gt = dataclasses.replace(seq.gt, joints=seq.gt.joints[:3], joint_valid=None)
+    gt = dataclasses.replace(seq.gt, joints=seq.gt.joints[:3], joint_valid=None, surface=None,
+                             surface_faces=None)
     seq = dataclasses.replace(seq, masks=masks, gt=gt)
     start = fit_oracle(body, seq.gt.joint_names, seq.gt.joints[:3], None, seq.gt.skeleton)
     res = mocap.track(seq, tracker="apf_prior", body=body, init=start.chi[0], alpha=start.alpha, frames=3,
@@ -55,7 +56,7 @@ def test_ground_truth_with_joints_the_body_lacks_fails_before_any_work(body, tmp
     joints = np.concatenate([gt.joints[:2], gt.joints[:2, :1]], axis=1)
     bad = dataclasses.replace(seq, masks=seq.masks[:2],
                               gt=dataclasses.replace(gt, joints=joints, joint_names=tuple(names), skeleton="",
-                                                     joint_valid=None))
+                                                     joint_valid=None, surface=None, surface_faces=None))
     write_sequence(bad, tmp_path / "seq")
     out = subprocess.run([sys.executable, "-m", "mocap_cli", "track", "data=folder",
                           f"data.path={tmp_path / 'seq'}", "tracker=local", "init.mode=tracker",
