@@ -2,9 +2,11 @@
 track`` runs) give the tracks saved in ``tests/data/runs_before_contract.npz`` by the code before
 the tracker contract (issue 33): a several-people ``marker_people`` run on 20 frames of the
 synthetic crowd (a person leaving, two entering), and two single-person runs (``local`` from
-ground truth plus noise, ``marker_apf`` self-initialised), within 1e-8 rad / m, with the same
-people, births and deaths. ``tests/trackers/test_tracks_unchanged.py`` checks the Python API's
-path the same way.
+ground truth plus noise, ``marker_apf`` self-initialised), with the same people, births and
+deaths, and poses within 10x the spread measured across CPUs' numeric paths (:data:`SPREAD`; the
+saved runs were made on one machine, and another CPU's OpenBLAS kernels round differently:
+docs/cluster.md, "Numbers on another CPU"); on the machine that saved them they are identical.
+``tests/trackers/test_tracks_unchanged.py`` checks the Python API's path the same way.
 
 Regenerate (only when a change of behaviour is intended):
 ``OPENBLAS_NUM_THREADS=1 .venv/bin/python -m tests.trackers.test_runs_unchanged``.
@@ -22,6 +24,10 @@ SAVED = Path(__file__).resolve().parents[1] / "data" / "runs_before_contract.npz
 CROWD_FRAMES = 20
 FAST_PEOPLE = {"particles": 20, "layers": 3, "init": {"particles": 60, "passes": 2, "layers": 5},
                "people": {"max_missed": 3}}
+#: run name -> the largest |chi difference| (rad / m) from the saved runs over the pinned numeric
+#: paths of scripts/numeric_spread.py (OpenBLAS Haswell; numba generic + OpenBLAS Prescott),
+#: measured 2026-11 on an Intel Xeon; the tolerance is 10x this
+SPREAD = {"crowd": 1.9e-6, "local": 3.5e-5, "marker_apf": 3.5e-5}
 #: run name -> (tracker, overrides, data kind, init.mode)
 RUNS = {
     "crowd": ("marker_people", FAST_PEOPLE, "crowd", "tracker"),
@@ -68,6 +74,7 @@ def run(body, name: str, out: Path) -> dict[str, np.ndarray]:
 
 
 @pytest.mark.slow
+@pytest.mark.golden
 @pytest.mark.parametrize("name", sorted(RUNS))
 def test_runs_equal_those_before_the_tracker_contract(name, body, tmp_path):
     if not SAVED.is_file():
@@ -77,7 +84,7 @@ def test_runs_equal_those_before_the_tracker_contract(name, body, tmp_path):
     before_chi = saved[f"{name}.chi"]
     assert after["chi"].shape == before_chi.shape
     assert not np.array_equal(after["chi"][1], after["chi"][0], equal_nan=True)       # it tracked
-    np.testing.assert_allclose(after["chi"], before_chi, rtol=0, atol=1e-8)      # NaN where NaN
+    np.testing.assert_allclose(after["chi"], before_chi, rtol=0, atol=10 * SPREAD[name])   # NaN where NaN
     np.testing.assert_array_equal(after["person_ids"], saved[f"{name}.person_ids"])
     assert json.loads(str(after["events"])) == json.loads(str(saved[f"{name}.events"]))
 
