@@ -287,9 +287,24 @@ SURFACE_METRICS = {
 }
 
 
+def _perturbation(r: dict) -> dict | None:
+    return (r.get("recovery") or {}).get("perturbation")
+
+
+# columns of recovery runs (mocap recovery: metrics.json "recovery", mocap.eval.recovery): key ->
+# (label, value of one run or None, decimals)
+RECOVERY_METRICS = {
+    "recovered": ("recovered", lambda r: (None if _perturbation(r) is None else
+                                          float(_perturbation(r)["frames_to_recover"] is not None)), 2),
+    "error_at_failure_mm": ("error at the failure (mm)",
+                            lambda r: (_perturbation(r) or {}).get("error_at_mm"), 1),
+}
+
+
 def _mismatch_cells(row: dict, rs: list[dict]) -> None:
     getters = [*((k, get) for k, (_, get) in MISMATCH_METRICS.items()),
-               *((k, get) for k, (_, get, _) in SURFACE_METRICS.items())]
+               *((k, get) for k, (_, get, _) in SURFACE_METRICS.items()),
+               *((k, get) for k, (_, get, _) in RECOVERY_METRICS.items())]
     for key, get in getters:
         vals = [get(r) for r in rs]
         if vals and all(v is not None for v in vals):
@@ -306,6 +321,7 @@ def markdown(rows: list[dict], problems: list[tuple[str, str]], title: str) -> s
               if any(k in r for r in rows)]
     mism = [(k, label, 1) for k, (label, _) in MISMATCH_METRICS.items() if any(k in r for r in rows)]
     mism += [(k, label, d) for k, (label, _, d) in SURFACE_METRICS.items() if any(k in r for r in rows)]
+    mism += [(k, label, d) for k, (label, _, d) in RECOVERY_METRICS.items() if any(k in r for r in rows)]
     show_over = any(r.get("overrides", "-") != "-" for r in rows)
     head = ["tracker", "data", *(["overrides"] if show_over else []), "particles x layers", "energy terms",
             "seeds", "joint error (mm)", "s / frame", "energy evals / frame", *(label for _, label in extras),
