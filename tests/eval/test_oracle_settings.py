@@ -40,6 +40,7 @@ def score(body, seq, oracle):
 
 def test_the_oracle_can_be_switched_off_without_changing_the_other_metrics(body, seq, monkeypatch):
     monkeypatch.setattr(run_metrics, "_ORACLES", {})
+    monkeypatch.setattr(run_metrics, "_FITS", {})
     on = score(body, seq, None)
     off = score(body, seq, {"enabled": False})
     assert "oracle" in on and on["oracle"]["raw_mm"] > 0 and "oracle" not in off
@@ -48,6 +49,7 @@ def test_the_oracle_can_be_switched_off_without_changing_the_other_metrics(body,
 
 def test_a_cached_fit_is_reused_by_content_and_equals_the_fit(body, seq, tmp_path, monkeypatch):
     monkeypatch.setattr(run_metrics, "_ORACLES", {})
+    monkeypatch.setattr(run_metrics, "_FITS", {})
     fitted = []
     real = run_metrics.fit_oracle
     monkeypatch.setattr(run_metrics, "fit_oracle", lambda *a, **k: fitted.append(1) or real(*a, **k))
@@ -56,6 +58,7 @@ def test_a_cached_fit_is_reused_by_content_and_equals_the_fit(body, seq, tmp_pat
     (written,) = (tmp_path / "oracles").glob("oracle-*.json")
     assert json.loads(written.read_text())["metrics"] == first
     monkeypatch.setattr(run_metrics, "_ORACLES", {})            # another process: the file serves
+    monkeypatch.setattr(run_metrics, "_FITS", {})
     assert score(body, seq, cache)["oracle"] == first and len(fitted) == 1
     # other ground truth (one joint moved 1 cm in one frame): another key, fitted again
     joints = seq.gt.joints.copy()
