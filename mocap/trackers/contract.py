@@ -91,6 +91,20 @@ class Initializer(Protocol):
     def set_random_state(self, state: dict | None) -> None: ...
 
 
+class Uncached:
+    """Mixin of an :class:`Initializer` that is never cached: no cache key, no random state to
+    store or restore; the class writes only ``__call__``."""
+
+    def cache_key(self, frame: Frame) -> str | None:
+        return None
+
+    def random_state(self) -> dict | None:
+        return None
+
+    def set_random_state(self, state: dict | None) -> None:
+        pass
+
+
 class Tracker(Protocol):
     """Every tracker, as the run sees it (see the module docstring)."""
 

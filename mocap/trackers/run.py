@@ -14,7 +14,7 @@ from mocap.body.model import BodyModel
 from mocap.data.sequence import Sequence
 from mocap.threads import thread_budget
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.contract import FrameEstimate, Initializer, Tracker, initial_estimate_of
+from mocap.trackers.contract import FrameEstimate, Initializer, Tracker, Uncached, initial_estimate_of
 
 #: on_frame(f, estimate of the frame {person id: estimate}, step seconds)
 OnFrame = Callable[[int, FrameEstimate, float], None]
@@ -53,7 +53,7 @@ def noisy_initial_pose(body: BodyModel, chi: np.ndarray, rng: np.random.Generato
 
 
 @dataclass(frozen=True)
-class GivenStart:
+class GivenStart(Uncached):
     """A start at a given pose chi (D,) and shape alpha (K,) for person 0; never cached."""
 
     chi: np.ndarray
@@ -62,15 +62,6 @@ class GivenStart:
 
     def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
         return {0: initial_estimate_of(self.chi, self.alpha)}, dict(self.info)
-
-    def cache_key(self, frame: Frame) -> str | None:
-        return None
-
-    def random_state(self) -> dict | None:
-        return None
-
-    def set_random_state(self, state: dict | None) -> None:
-        pass
 
 
 #: the ways a run starts (``init.mode``)

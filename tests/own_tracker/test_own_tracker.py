@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.contract import Needs, OnePerson, SearchBudget, initial_estimate_of
+from mocap.trackers.contract import Needs, OnePerson, SearchBudget, Uncached, initial_estimate_of
 from mocap.trackers.diagnostics import StepDiagnostics
 
 REPO = Path(__file__).resolve().parents[2]
@@ -49,7 +49,7 @@ class Drift(OnePerson):
         return self.last
 
 
-class DriftStart:
+class DriftStart(Uncached):
     """The two-people drift's start: person 0 and 1 at rest, 0.8 m apart (never cached)."""
 
     def __init__(self, body):
@@ -61,15 +61,6 @@ class DriftStart:
         other = chi.copy()
         other[0] += 0.8
         return {0: initial_estimate_of(chi, alpha), 1: initial_estimate_of(other, alpha)}, {"seconds": 0.0}
-
-    def cache_key(self, frame):
-        return None
-
-    def random_state(self):
-        return None
-
-    def set_random_state(self, state):
-        pass
 
 
 class DriftPeople:

@@ -43,7 +43,7 @@ from scipy.optimize import linear_sum_assignment
 from mocap.data.sequence import Detections
 from mocap.energy.markers import arrange_detections, pinhole_project
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks
+from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks, Uncached
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.markers.associate import Skeletons, associate_people, person_detections, skeletons_of
 from mocap.trackers.markers.settings import PeopleOptions
@@ -325,7 +325,7 @@ class PeopleTracker:
         return {t.id: dict(t.estimates) for t in self.tracks}
 
 
-class PeopleStart:
+class PeopleStart(Uncached):
     """The several-people start-up (:meth:`PeopleTracker.start`) as an
     :class:`~mocap.trackers.contract.Initializer`: {track id: initial estimate}; info: its
     seconds. Never cached."""
@@ -337,12 +337,3 @@ class PeopleStart:
         t = time.perf_counter()
         tracks = self.people.start(frame)
         return {t_.id: t_.estimates[frame.index] for t_ in tracks}, {"seconds": time.perf_counter() - t}
-
-    def cache_key(self, frame: Frame) -> str | None:
-        return None
-
-    def random_state(self) -> dict | None:
-        return None
-
-    def set_random_state(self, state: dict | None) -> None:
-        pass

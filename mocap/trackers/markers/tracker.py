@@ -34,7 +34,7 @@ from mocap.energy.markers import (
 )
 from mocap.trackers.annealed_step import AnnealedStep
 from mocap.trackers.base import Frame
-from mocap.trackers.contract import Needs, OnePerson, SearchBudget
+from mocap.trackers.contract import Needs, OnePerson, SearchBudget, Uncached
 from mocap.trackers.diagnostics import LandmarkReport, RefineTrace, StepDiagnostics
 from mocap.trackers.markers.associate import associate_people, person_detections, skeletons_of
 from mocap.trackers.markers.crossover import PartGroup, part_groups, run_annealing
@@ -326,7 +326,7 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
 
 
 
-class MarkerStart:
+class MarkerStart(Uncached):
     """The marker tracker's start-up (:meth:`MarkerAPFTracker.initial_estimate`) as an
     :class:`~mocap.trackers.contract.Initializer`; info: its seconds. Never cached."""
 
@@ -339,12 +339,3 @@ class MarkerStart:
         t = time.perf_counter()
         chi, alpha = self.tracker.initial_estimate(frame)
         return {0: initial_estimate_of(chi, alpha)}, {"seconds": time.perf_counter() - t}
-
-    def cache_key(self, frame: Frame) -> str | None:
-        return None
-
-    def random_state(self) -> dict | None:
-        return None
-
-    def set_random_state(self, state: dict | None) -> None:
-        pass
