@@ -18,7 +18,7 @@ export PYOPENGL_PLATFORM="${PYOPENGL_PLATFORM:-egl}"
 SWEEP="outputs/main/$(date +%Y-%m-%d_%H-%M-%S)"
 TRACKERS="${TRACKERS:-local,apf,apf_25x10,apf_prior,apf_prior_real,hybrid,hybrid_kp,marker_apf}"
 .venv/bin/mocap track --multirun "tracker=$TRACKERS" data=real_byebye_petite_woman frames=20 seed=0 \
-  init.mode=tracker init.cache=outputs/init_cache "hydra.sweep.dir=$SWEEP" "$@"
+  init.mode=tracker init.cache=outputs/init_cache oracle.cache=outputs/oracle_cache "hydra.sweep.dir=$SWEEP" "$@"
 .venv/bin/mocap ablate "$SWEEP" \
   --title "Real motion: held-out byebye on anny's petite woman, 8 views, 20 frames, self-initialised"
 echo

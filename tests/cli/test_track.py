@@ -94,7 +94,7 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
     if tracker == "local":
         budget = []
     if cfg.init.mode == "tracker":           # a self-initialising sweep: a cheap initialisation
-        budget += [f"init.cache={tmp_path / 'cache'}"]
+        budget += [f"init.cache={tmp_path / 'cache'}", f"oracle.cache={tmp_path / 'oracles'}"]
         if not tracker.startswith("marker"):  # the marker tracker starts from its detections
             budget += ["++tracker.initialization.rounds=0", "++tracker.initialization.hypotheses=0",
                        "++tracker.initialization.pose_particles=8", "++tracker.initialization.pose_layers=2"]
