@@ -24,13 +24,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+import mocap as mc
 from mocap.calibration.boards import Board
 from mocap.calibration.compare import compare_rigs
-from mocap.calibration.synthetic import board_poses_facing, render_board
+from mocap.calibration.synthetic import board_poses_facing, keypoints_through, render_board, walking_rig
 from mocap.cameras import load_calibration, project, save_calibration
+from mocap.data.openpose import LAYOUTS, write_openpose_folders
 from mocap_cli.main import main as mocap
-from tests.calibration.scenes import walking_joints, walking_keypoints, walking_rig
-from tests.calibration.test_cli import _openpose_folders
 
 BOARD = Board("checkerboard", 7, 5, 0.08)
 
@@ -70,15 +70,19 @@ def main() -> None:
     (out / "points.json").write_text(json.dumps({
         "points": {f"p{i}": x.tolist() for i, x in enumerate(X)},
         "cameras": {n: {f"p{i}": px[c, i].tolist() for i in range(10)} for c, n in enumerate(rig.names)}}))
-    xy, conf = walking_keypoints(rig, 1.0)
+    seq = mc.synthetic_sequence(mc.load_body("paper22"), cameras="ring4_small", motion="walk", frames=60,
+                                masks=False)
+    J, labels = np.asarray(seq.gt.joints), list(seq.gt.joint_names)
+    xy, conf = keypoints_through(rig, J, 1.0)
     pose = out / "pose"
-    if not pose.exists():
-        _openpose_folders(pose, rig, xy, conf, 60)
-    J, labels = walking_joints()
+    if not pose.exists():         # the 19 joints in BODY_25B's first 19 slots
+        kp = np.zeros((len(rig), len(J), 25, 3))
+        kp[:, :, :J.shape[1], :2] = xy.reshape(len(rig), len(J), -1, 2)
+        kp[:, :, :J.shape[1], 2] = conf.reshape(len(rig), len(J), -1)
+        write_openpose_folders(pose, rig.names, kp)
     hip, ankle = labels.index("l_hip"), labels.index("l_ankle")
     leg = float(np.median(np.linalg.norm(J[:, hip] - J[:, ankle], axis=-1)))
     # the walking body's 19 joints were written in BODY_25B's first slots: name the leg by slot
-    from mocap.data.openpose import LAYOUTS
     a_name, b_name = LAYOUTS["BODY_25B"][hip], LAYOUTS["BODY_25B"][ankle]
     base = ["--intrinsics", str(intr), "--board", "checkerboard:7x5:0.08", "--compare",
             str(out / "truth.json"), "--overwrite"]

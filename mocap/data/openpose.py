@@ -48,6 +48,19 @@ def _key(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", name)
 
 
+def write_openpose_folders(root: str | Path, names: Seq[str], keypoints: np.ndarray) -> None:
+    """keypoints (C, F, K, 3) x, y, confidence per camera, frame and keypoint -> ``root/<name>_json/
+    <name>.<frame:04d>.json``, one person per frame (none where every confidence is 0): the layout
+    :func:`load_openpose_sequence` reads."""
+    root = Path(root)
+    for name, per_frame in zip(names, np.asarray(keypoints, float), strict=True):
+        folder = root / f"{name}_json"
+        folder.mkdir(parents=True, exist_ok=True)
+        for f, kp in enumerate(per_frame):
+            people = [{"pose_keypoints_2d": kp.reshape(-1).tolist()}] if kp[:, 2].any() else []
+            (folder / f"{name}.{f:04d}.json").write_text(json.dumps({"people": people}))
+
+
 def frame_number(path: Path) -> int:
     nums = re.findall(r"\d+", path.stem)
     if not nums:

@@ -8,8 +8,11 @@ import functools
 import numpy as np
 
 from mocap.calibration.boards import Board, detect_board
-from mocap.calibration.synthetic import board_poses_facing, render_board
-from mocap.cameras import Rig, look_at_camera, project, ring_rig
+from mocap.calibration.synthetic import board_poses_facing, keypoints_through, render_board, walking_rig
+from mocap.cameras import Rig, look_at_camera
+from mocap.data.openpose import write_openpose_folders
+
+__all__ = ["walking_rig"]
 
 BOARD = Board("checkerboard", 7, 5, 0.05)
 BIG_BOARD = Board("checkerboard", 7, 5, 0.08)
@@ -58,11 +61,6 @@ def arc_views(n: int = 6, seed: int = 1) -> tuple[dict[str, tuple[np.ndarray, np
     return out
 
 
-def walking_rig() -> Rig:
-    return ring_rig(4, 3.5, 1.5, 1280, 960, fov_deg=50, look_at=(0, 0, 0.9), dist=[-0.05, 0.02, 0, 0, 0],
-                    start_deg=30)
-
-
 @functools.cache
 def walking_joints(frames: int = 60) -> tuple[np.ndarray, tuple[str, ...]]:
     """(F, J, 3) joints of the body walking (mocap.synthetic_sequence), and their names."""
@@ -74,11 +72,15 @@ def walking_joints(frames: int = 60) -> tuple[np.ndarray, tuple[str, ...]]:
 
 
 def walking_keypoints(rig: Rig, noise_px: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """(xy (C, F*J, 2), confidence (C, F*J)): the joints through ``rig`` plus Gaussian noise;
-    points outside an image have confidence 0."""
-    J, _ = walking_joints()
-    px = np.transpose(project(rig, J), (1, 0, 2, 3)).reshape(len(rig), -1, 2)
-    xy = px + np.random.default_rng(seed).normal(0, noise_px, px.shape)
-    W, H = rig.sizes[:, 0:1], rig.sizes[:, 1:2]
-    inside = (xy[..., 0] > 0) & (xy[..., 0] < W) & (xy[..., 1] > 0) & (xy[..., 1] < H)
-    return xy, inside.astype(float)
+    """(xy (C, F*J, 2), confidence (C, F*J)): :func:`walking_joints` through ``rig`` plus Gaussian
+    noise; points outside an image have confidence 0."""
+    return keypoints_through(rig, walking_joints()[0], noise_px, seed)
+
+
+def openpose_folders(root, rig: Rig, xy: np.ndarray, conf: np.ndarray, frames: int) -> None:
+    """OpenPose JSON per camera: the walking body's 19 joints in BODY_25B's first 19 slots."""
+    C = len(rig)
+    xy, conf = xy.reshape(C, frames, -1, 2), conf.reshape(C, frames, -1)
+    kp = np.zeros((C, frames, 25, 3))
+    kp[:, :, :xy.shape[2], :2], kp[:, :, :xy.shape[2], 2] = xy, conf
+    write_openpose_folders(root, rig.names, kp)

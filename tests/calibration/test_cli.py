@@ -13,7 +13,7 @@ import pytest
 from mocap.calibration.synthetic import board_poses_facing, render_board
 from mocap.cameras import Rig, load_calibration, save_calibration
 from mocap_cli.main import main
-from tests.calibration.scenes import BOARD, K, close_camera, walking_keypoints, walking_rig
+from tests.calibration.scenes import BOARD, K, close_camera, openpose_folders, walking_keypoints, walking_rig
 
 BOARD_ARG = "checkerboard:7x5:0.05"
 
@@ -92,28 +92,13 @@ def test_synchronised_videos_of_different_lengths_are_named(tmp_path, capsys):
              "camera 'camc'", "13 frames", "synchronised")
 
 
-def _openpose_folders(root, rig, xy, conf, frames):
-    """OpenPose JSON per camera: the walking body's 19 joints padded to BODY_25B's 25."""
-    C = len(rig)
-    xy = xy.reshape(C, frames, -1, 2)
-    conf = conf.reshape(C, frames, -1)
-    for c, n in enumerate(rig.names):
-        d = root / f"{n}_json"
-        d.mkdir(parents=True)
-        for f in range(frames):
-            kp = np.zeros((25, 3))
-            kp[:xy.shape[2], :2], kp[:xy.shape[2], 2] = xy[c, f], conf[c, f]
-            people = [{"pose_keypoints_2d": kp.ravel().tolist()}] if conf[c, f].any() else []
-            (d / f"{n}.{f:04d}.json").write_text(json.dumps({"people": people}))
-
-
 def test_cameras_without_overlap_are_named(tmp_path, capsys):
     rig = walking_rig()
     save_calibration(rig, tmp_path / "intr.json")
     xy, conf = walking_keypoints(rig, 0.5)
     conf = conf.reshape(len(rig), 60, -1)
     conf[3, 2:] = 0                     # the last camera sees the person in two frames only
-    _openpose_folders(tmp_path / "pose", rig, xy, conf.reshape(len(rig), -1), 60)
+    openpose_folders(tmp_path / "pose", rig, xy, conf.reshape(len(rig), -1), 60)
     _refused(capsys, ["--intrinsics-from", str(tmp_path / "intr.json"), "--extrinsics", "people",
                       "--keypoints", str(tmp_path / "pose")], tmp_path / "out",
              "camera 'cam_03'", "no overlap")
@@ -138,7 +123,7 @@ def test_people_in_the_scene_calibrate_a_rig_through_the_command(tmp_path, capsy
     rig = walking_rig()
     save_calibration(rig, tmp_path / "intr.json")
     xy, conf = walking_keypoints(rig, 1.0)
-    _openpose_folders(tmp_path / "pose", rig, xy, conf, 60)
+    openpose_folders(tmp_path / "pose", rig, xy, conf, 60)
     out = tmp_path / "out"
     assert main(["calibrate", str(out), "--intrinsics-from", str(tmp_path / "intr.json"), "--extrinsics",
                  "people", "--keypoints", str(tmp_path / "pose"), "--layout", "BODY_25B",
