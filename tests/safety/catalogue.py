@@ -269,6 +269,7 @@ def real_motion() -> Path:
 
 
 def evil_configs(victim: Path) -> dict[str, dict]:
+    """Stored configs that name something outside the registry (or misuse a registered one), by label."""
     write = {"_target_": "mocap.run_folder.read.write_json", "path": str(victim / "written.json"),
              "data": {"owned": True}}
     drop = {"_target_": "mocap.run_folder.resume.drop_previous", "out_dir": str(victim)}
@@ -276,8 +277,8 @@ def evil_configs(victim: Path) -> dict[str, dict]:
     return {
         "body=run_folder.read.write_json": {"body": write, "data": GOOD_DATA},
         "data=run_folder.read.write_json": {"body": GOOD_BODY, "data": write},
-        "body=eval.resume.drop_previous": {"body": drop, "data": GOOD_DATA},
-        "data=eval.run_metadata.git_revision": {"body": GOOD_BODY, "data": git},
+        "body=run_folder.resume.drop_previous": {"body": drop, "data": GOOD_DATA},
+        "data=run_folder.metadata.git_revision": {"body": GOOD_BODY, "data": git},
         "body=os.system": {"body": {"_target_": "os.system", "command": f"touch {victim}/pwned"},
                            "data": GOOD_DATA},
         "body=mocap.presets.build(write_json)": {"body": {"_target_": "mocap.presets.build", "config": write},
@@ -288,6 +289,10 @@ def evil_configs(victim: Path) -> dict[str, dict]:
         "_target_ as a list": {"body": {"_target_": ["mocap.run_folder.read", "write_json"]},
                                "data": GOOD_DATA},
         "body=shutil.rmtree": {"body": {"_target_": "shutil.rmtree", "path": str(victim)}, "data": GOOD_DATA},
+        "extra.a[0].b=write_json (deep)": {"body": GOOD_BODY, "data": GOOD_DATA,
+                                           "extra": {"a": [{"b": write}]}},
+        "body=mocap.__builtins__.eval": {"body": {"_target_": "mocap.__builtins__.eval", "source": "1"},
+                                         "data": GOOD_DATA},
         "body=mocap.export.export_run": {"body": {"_target_": "mocap.export.export_run",
                                                   "run_dir": str(victim),
                                                   "fmt": "bvh"}, "data": GOOD_DATA},
