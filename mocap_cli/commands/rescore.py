@@ -10,6 +10,7 @@ speed, effort and initialisation figures are kept. The figures it replaces are k
 
     mocap rescore multirun/mismatch           # every run below a folder
     mocap rescore outputs/track/<run> --dry-run
+    mocap rescore multirun/recovery --oracle-cache outputs/oracle_cache   # each sequence's oracle fitted once
     mocap ablate multirun/mismatch            # the tables from the new figures
 """
 
@@ -20,6 +21,7 @@ import contextlib
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from mocap.run_folder.lock import RunFolderBusy, run_lock
@@ -40,10 +42,12 @@ def run_dirs(targets: list[Path]) -> list[Path]:
     return list(dict.fromkeys(out))
 
 
-def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]:
+def rescore(run: Path, version: str, dry_run: bool = False,
+            oracle_cache: Path | None = None) -> tuple[dict, dict]:
     """(old, new) accuracy figures of one run; metrics.json (and the manifest's checksum of it)
-    rewritten unless ``dry_run``. A folder that is not a complete run is refused."""
-    from mocap.eval.run_metrics import accuracy_metrics
+    rewritten unless ``dry_run``. A folder that is not a complete run is refused. The oracles are
+    fitted as the run's stored ``oracle`` settings say, kept in ``oracle_cache`` where given."""
+    from mocap.eval.run_metrics import accuracy_metrics, oracle_settings
     from mocap.export.motion import load_motion
     from mocap.run_folder import run_body, run_sequence, write_json
 
@@ -60,7 +64,10 @@ def rescore(run: Path, version: str, dry_run: bool = False) -> tuple[dict, dict]
     F = motion.num_frames
     if motion.chi.shape[1] != body.num_dofs:
         raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
-    new = accuracy_metrics(body, seq, motion.chi, motion.alpha)
+    oracle = oracle_settings(metrics["config"].get("oracle"))
+    if oracle_cache is not None:
+        oracle = replace(oracle, cache=str(oracle_cache))
+    new = accuracy_metrics(body, seq, motion.chi, motion.alpha, oracle)
     old = {k: metrics[k] for k in new if k in metrics}
     if not dry_run:
         previous = {k: old[k] for k in SUMMARY if k in old}
@@ -80,6 +87,9 @@ def main(argv: list[str] | None = None) -> int:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("targets", nargs="+", type=Path, help="run directories or folders holding them")
     p.add_argument("--dry-run", action="store_true", help="print the new figures, write nothing")
+    p.add_argument("--oracle-cache", type=Path, default=None,
+                   help="keep the oracle fits in this folder (by the ground truth's content): runs of one "
+                        "sequence fit it once (default: the runs' own oracle.cache setting)")
     args = p.parse_args(argv)
     runs = run_dirs(args.targets)
     if not runs:
@@ -92,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
     for i, run in enumerate(runs, 1):
         try:
             with contextlib.nullcontext() if args.dry_run else run_lock(run):     # one writer per folder
-                old, new = rescore(run, version, args.dry_run)
+                old, new = rescore(run, version, args.dry_run, args.oracle_cache)
         except (ValueError, FileNotFoundError, RunFolderBusy) as exc:
             print(f"[{i}/{len(runs)}] {run}: skipped: {exc}", file=sys.stderr)
             failed += 1

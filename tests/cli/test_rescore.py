@@ -60,10 +60,21 @@ def test_rescoring_a_mismatch_run_scores_the_oracles_poses_as_the_oracle(tmp_pat
                        "images": False, "name": "mismatch_walk"}}
     (run / "metrics.json").write_text(json.dumps({"config": config, "mpjpe_mm": 999.0}))
     write_manifest(run, ["motion.npz", "metrics.json"])        # a complete run, as mocap track leaves it
-    r = rescore(run)
+    twin = tmp_path / "twin"
+    shutil.copytree(run, twin)
+    r = rescore(run, "--oracle-cache", tmp_path / "cache")
     assert r.returncode == 0, r.stderr
     m = json.loads((run / "metrics.json").read_text())
     assert m["mpjpe_mm"] == pytest.approx(fit.metrics["raw_mm"], abs=0.05)
     assert m["mismatch"]["raw_mm"] == pytest.approx(fit.metrics["raw_mm"], abs=0.05)
     assert m["oracle"]["raw_mm"] == pytest.approx(fit.metrics["raw_mm"], abs=0.05)
     assert m["rescored"]["previous"] == {"mpjpe_mm": 999.0}
+    # the oracle fits were kept by content: a second run of the same sequence reads them back
+    kept = sorted(p.name for p in (tmp_path / "cache").rglob("*") if p.is_file())
+    assert kept
+    r = rescore(twin, "--oracle-cache", tmp_path / "cache")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in (tmp_path / "cache").rglob("*") if p.is_file()) == kept
+    t = json.loads((twin / "metrics.json").read_text())
+    assert t["oracle"] == m["oracle"]
+    assert t.get("surface_oracle_mm") == m.get("surface_oracle_mm")
