@@ -202,3 +202,22 @@ def person_timeline(path: str | Path, person: int, arrays: Mapping | None = None
                    **{k: getattr(m, k)[near] for k in ("chi", "alpha", "joints", "joint_rotations",
                                                        "root_transform", "landmarks")},
                    per_frame={}), live
+
+
+def people_summary_text(a: Mapping[str, np.ndarray]) -> str:
+    """A few lines on a people motion file's arrays: frames, people, each person's frames."""
+    F, P = a["live"].shape
+    lines = [f"people motion: {F} frames at {float(a['fps']):g} fps, {P} people "
+             f"(ids {', '.join(str(int(i)) for i in a['person_ids'])}), {len(a['joint_names'])} joints, "
+             f"body {str(a.get('body', '?'))} (model {str(a.get('model_hash', '?'))}), "
+             f"tracker {str(a.get('tracker', '?'))}"]
+    for p, pid in enumerate(a["person_ids"]):
+        live = np.flatnonzero(a["live"][:, p])
+        if not len(live):
+            lines.append(f"  person {int(pid)}: no frame")
+            continue
+        lost = int(np.asarray(a["lost"])[:, p].sum()) if "lost" in a else 0
+        ended = " (ended)" if "ended" in a and bool(a["ended"][p]) else ""
+        lines.append(f"  person {int(pid)}: {len(live)} frames, {int(live[0])}-{int(live[-1])}{ended}"
+                     + (f", {lost} lost" if lost else ""))
+    return "\n".join(lines)
