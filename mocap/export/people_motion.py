@@ -218,6 +218,7 @@ def people_summary_text(a: Mapping[str, np.ndarray]) -> str:
             continue
         lost = int(np.asarray(a["lost"])[:, p].sum()) if "lost" in a else 0
         ended = " (ended)" if "ended" in a and bool(a["ended"][p]) else ""
-        lines.append(f"  person {int(pid)}: {len(live)} frames, {int(live[0])}-{int(live[-1])}{ended}"
+        lines.append(f"  person {int(pid)}: {len(live)} frame{'s' * (len(live) != 1)}, "
+                     f"{int(live[0])}-{int(live[-1])}{ended}"
                      + (f", {lost} lost" if lost else ""))
     return "\n".join(lines)

@@ -130,3 +130,20 @@ def test_what_says_a_recording_holds_several_people(body, tmp_path):
     subject = replace(crowd, detections=single, meta={"people_in_view": 2, "person": "subject"})
     assert several_people_evidence(subject)["why"] == ("the keypoint files hold up to 2 people in one view "
                                                        "(data.person=subject kept one per view)")
+
+
+DEMO = REPO.parent / "shared" / "data" / "pose2sim-demo"
+
+
+@pytest.mark.skipif(not (DEMO / "Calib.toml").is_file(), reason="Pose2Sim demo data not present")
+def test_the_pose2sim_demos_bystanders_are_seen_though_one_subject_is_kept():
+    import warnings
+
+    from mocap.data.openpose import load_openpose_sequence
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")             # frames without the subject in a view
+        seq = load_openpose_sequence(DEMO, fps=60, layout="auto", frames=10)
+    assert len(np.unique(seq.detections.person[seq.detections.frame == 0])) >= 1
+    evidence = several_people_evidence(seq)
+    assert evidence["people"] >= 2 and evidence["why"].endswith("(data.person=subject kept one per view)")
