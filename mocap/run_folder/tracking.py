@@ -197,7 +197,12 @@ def _prepare(settings: RunSettings, threads, make_body, make_sequence, make_trac
                          "tracker)")
     # several people in the data, one followed: said now and kept in metrics.json (a flag, not an
     # error: following one subject among bystanders is what data.person=subject is for)
-    several = None if tracker.several_people else several_people_evidence(seq)
+    several = several_people_evidence(seq)
+    if tracker.several_people and several is not None and seq.meta.get("person") == "subject":
+        # the opposite mistake, and one that cannot be what was meant: refused before any work
+        raise ValueError(f"tracker {tracker.name!r} tracks several people, but data.person=subject keeps one "
+                         f"per view ({several['why'].split(' (')[0]}): use data.person=all")
+    several = None if tracker.several_people else several
     if several is not None:
         print(f"WARNING: {one_person_flag(several)}", file=sys.stderr)
     start = run_start(init.mode, tracker, body, seq, rng, init.noise_deg, init.noise_translation, init.cache)

@@ -147,3 +147,14 @@ def test_the_pose2sim_demos_bystanders_are_seen_though_one_subject_is_kept():
     assert len(np.unique(seq.detections.person[seq.detections.frame == 0])) >= 1
     evidence = several_people_evidence(seq)
     assert evidence["people"] >= 2 and evidence["why"].endswith("(data.person=subject kept one per view)")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (DEMO / "Calib.toml").is_file(), reason="Pose2Sim demo data not present")
+def test_a_several_people_tracker_on_one_kept_person_is_refused_before_any_work(tmp_path):
+    r = mocap("track", f"hydra.run.dir={tmp_path}", "tracker=marker_people", "data=pose2sim_demo",
+              f"data.path={DEMO}", "init.mode=tracker")
+    assert r.returncode != 0 and "Traceback" not in r.stderr
+    said = "tracks several people, but data.person=subject keeps one per view (the keypoint files hold up to"
+    assert said in r.stderr and r.stderr.strip().endswith("use data.person=all")
+    assert not (tmp_path / "metrics.json").exists() and not (tmp_path / "motion.npz").exists()
