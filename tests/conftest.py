@@ -69,3 +69,35 @@ def short_run(tmp_path_factory) -> Path:
             assert r.returncode == 0, r.stderr[-3000:]
             done.touch()
     return out
+
+
+#: the several-people run of :func:`people_run`: the synthetic crowd's first 6 frames (people 0-2
+#: from the start, one entering at frame 3 picked up by frame 5), a tiny search budget
+PEOPLE_RUN = ["tracker=marker_people", "data=crowd", "data.frames=20", "frames=6", "init.mode=tracker",
+              "tracker.particles=20", "tracker.layers=3", "tracker.init.particles=60",
+              "tracker.init.passes=2", "tracker.init.layers=5"]
+
+
+@pytest.fixture(scope="session")
+def people_run(tmp_path_factory) -> Path:
+    """A short several-people run directory (:data:`PEOPLE_RUN`, recording on; ~50 s): a
+    ``mocap-people-v1`` motion.npz, metrics.json with per-person scores, recording.rrd. Read only
+    (the export, replay and rescore tests copy it to change it); shared by xdist workers as
+    :func:`short_run` is."""
+    import fcntl
+    import os
+    import subprocess
+    import sys
+
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    out, done = root / "people_run", root / "people_run.done"
+    with open(root / "people_run.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.is_file():
+            r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={out}",
+                                *PEOPLE_RUN], capture_output=True, text=True, cwd=REPO, timeout=900)
+            assert r.returncode == 0, r.stderr[-3000:]
+            done.touch()
+    return out

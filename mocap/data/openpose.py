@@ -437,7 +437,8 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
                      person=arr[:, 6].astype(np.int64))
     meta = {"source": str(root), "calibration": str(calib), "layout": layout,
             "layout_setting": layout_setting, "person": person, "first_frame": int(first),
-            "frames": len(all_frames), "frames_without_keypoints": without}
+            "frames": len(all_frames), "frames_without_keypoints": without,
+            "people_in_view": _most_in_view(people, all_frames)}
     if truth is not None:
         from dataclasses import replace
 
@@ -451,6 +452,13 @@ def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None =
     # detected are frames of the recording too
     return Sequence(name=name or root.name, rig=rig, fps=fps, detections=det, gt=truth, meta=meta,
                     frames=all_frames[-1] - first + 1)
+
+
+def _most_in_view(people: list[dict[int, np.ndarray]], frames: Seq[int]) -> int:
+    """The most people one view's keypoint file held in one of ``frames`` (before any choice of
+    a subject): several people in the recording, whatever ``person`` keeps."""
+    kept = set(frames)
+    return max((len(ppl) for view in people for f, ppl in view.items() if f in kept), default=0)
 
 
 def _ranges(frames: Seq[int]) -> str:

@@ -11,21 +11,20 @@ from mocap.export.motion import Motion
 
 
 def write_c3d(motion: Motion, path: str | Path, which: str = "landmarks") -> Path:
+    from mocap.export.trc import motion_points
+
+    names, pts = motion_points(motion, which)
+    return write_points_c3d(names, pts, motion.fps, path)
+
+
+def write_points_c3d(names, pts: np.ndarray, fps: float, path: str | Path) -> Path:
+    """Points (F, L, 3) world metres named ``names`` (L,) (several people: ``p<id>_<marker>``;
+    NaN where a point is missing: written as NaN, which ezc3d reads back as NaN)."""
     import ezc3d
 
-    if which == "tracker":
-        if "tracker_landmarks" not in motion.per_frame:
-            raise ValueError("this run's tracker reported no landmarks of its own (marker runs do)")
-        names = tuple(str(n) for n in motion.per_frame["tracker_landmark_names"])
-        pts = motion.per_frame["tracker_landmarks"]
-    elif which in ("landmarks", "joints"):
-        names, pts = ((motion.landmark_names, motion.landmarks) if which == "landmarks"
-                      else (motion.joint_names, motion.joints))
-    else:
-        raise ValueError(f"which must be 'landmarks', 'joints' or 'tracker', got {which!r}")
     F, L = len(pts), len(names)
     c = ezc3d.c3d()
-    c["parameters"]["POINT"]["RATE"]["value"] = [float(motion.fps)]
+    c["parameters"]["POINT"]["RATE"]["value"] = [float(fps)]
     c["parameters"]["POINT"]["LABELS"]["value"] = list(names)
     c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
     data = np.ones((4, L, F))

@@ -65,8 +65,42 @@ def skin_influences(weights: np.ndarray, k: int = INFLUENCES) -> tuple[np.ndarra
 def write_gltf(motion: Motion, path: str | Path, body, influences: int = INFLUENCES) -> Path:
     """body: the run's :class:`mocap.body.model.BodyModel` (rest mesh, faces, weights);
     influences: joints per vertex, 4 or 8 (see the module docstring)."""
+    return write_people_gltf([("", motion, None)], path, body, influences)
+
+
+def write_people_gltf(people, path: str | Path, body, influences: int = INFLUENCES) -> Path:
+    """One GLB with a skinned body per person: ``people`` [(name prefix, motion over the same
+    F frames, visible (F,) bool or None)]; each person has its own joint nodes (named
+    ``<prefix><joint>``), mesh and skin, and one animation drives them all. A person not
+    visible in a frame has its root joint scaled to 0 there (STEP interpolation; the pose
+    held is the nearest visible frame's, :func:`mocap.export.people_motion.person_timeline`)."""
     if influences not in ALLOWED_INFLUENCES:
         raise ValueError(f"setting influences = {influences!r} is out of range (one of {ALLOWED_INFLUENCES})")
+    if not people:
+        raise ValueError("a glTF export needs at least one person")
+    F, fps = people[0][1].num_frames, people[0][1].fps
+    b = _Blob()
+    parts: dict = {"nodes": [], "meshes": [], "skins": [], "samplers": [], "channels": [], "scene": []}
+    times = b.add((np.arange(F) / fps).astype(np.float32), "SCALAR", gl.FLOAT, minmax=True)
+    for prefix, motion, visible in people:
+        if motion.num_frames != F:
+            raise ValueError(f"person {prefix!r}: {motion.num_frames} frames, the others {F}")
+        _add_person(b, parts, motion, body, influences, times, prefix, visible)
+    doc = gl.GLTF2(
+        asset=gl.Asset(generator="mocap", version="2.0"),
+        scene=0, scenes=[gl.Scene(nodes=parts["scene"])], nodes=parts["nodes"], meshes=parts["meshes"],
+        skins=parts["skins"],
+        animations=[gl.Animation(name="motion", samplers=parts["samplers"], channels=parts["channels"])],
+        accessors=b.accessors, bufferViews=b.views, buffers=[gl.Buffer(byteLength=len(b.data))])
+    doc.set_binary_blob(bytes(b.data))
+    path = Path(path)
+    doc.save_binary(str(path))
+    return path
+
+
+def _add_person(b: _Blob, parts: dict, motion: Motion, body, influences: int, times: int, prefix: str,
+                visible: np.ndarray | None) -> None:
+    """Append one person's joint nodes, mesh, skin and animation channels to ``parts``."""
     F, J = motion.num_frames, len(motion.joint_names)
     par = motion.joint_parents
     shaped = body.shaped(motion.alpha[-1])
@@ -79,7 +113,6 @@ def write_gltf(motion: Motion, path: str | Path, body, influences: int = INFLUEN
     quat = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_quat().reshape(F, J, 4).astype(np.float32)
     root_t = points_to(GLTF_FROM_WORLD, motion.joints[:, 0]).astype(np.float32)
 
-    b = _Blob()
     pos = b.add(rest_v, "VEC3", gl.FLOAT, gl.ARRAY_BUFFER, minmax=True)
     ind = b.add(np.asarray(body.faces, np.uint32).ravel(), "SCALAR", gl.UNSIGNED_INT, gl.ELEMENT_ARRAY_BUFFER)
     jnt, wts = skin_influences(np.asarray(body.weights, np.float64), influences)
@@ -90,35 +123,32 @@ def write_gltf(motion: Motion, path: str | Path, body, influences: int = INFLUEN
     ibm = np.tile(np.eye(4, dtype=np.float32), (J, 1, 1))
     ibm[:, :3, 3] = -rest_j
     ibm_acc = b.add(np.transpose(ibm, (0, 2, 1)).reshape(J, 16), "MAT4", gl.FLOAT)  # column-major
-    times = b.add((np.arange(F) / motion.fps).astype(np.float32), "SCALAR", gl.FLOAT, minmax=True)
 
-    nodes = []
+    nodes, samplers, channels = parts["nodes"], parts["samplers"], parts["channels"]
+    base = len(nodes)
     for j, name in enumerate(motion.joint_names):
         t = rest_j[j] if par[j] < 0 else rest_j[j] - rest_j[par[j]]
-        nodes.append(gl.Node(name=name, translation=[float(v) for v in t],
-                             children=[int(c) for c in np.flatnonzero(par == j)]))
+        nodes.append(gl.Node(name=f"{prefix}{name}", translation=[float(v) for v in t],
+                             children=[base + int(c) for c in np.flatnonzero(par == j)]))
     mesh_node = len(nodes)
-    nodes.append(gl.Node(name="body", mesh=0, skin=0))
-    samplers, channels = [], []
-    for j in range(J):
-        samplers.append(gl.AnimationSampler(input=times, output=b.add(quat[:, j], "VEC4", gl.FLOAT),
-                                            interpolation="LINEAR"))
-        channels.append(gl.AnimationChannel(sampler=len(samplers) - 1,
-                                            target=gl.AnimationChannelTarget(node=j, path="rotation")))
-    samplers.append(gl.AnimationSampler(input=times, output=b.add(root_t, "VEC3", gl.FLOAT),
-                                        interpolation="LINEAR"))
+    nodes.append(gl.Node(name=f"{prefix}body", mesh=len(parts["meshes"]), skin=len(parts["skins"])))
     root = int(np.flatnonzero(par < 0)[0])
-    channels.append(gl.AnimationChannel(sampler=len(samplers) - 1,
-                                        target=gl.AnimationChannelTarget(node=root, path="translation")))
-    doc = gl.GLTF2(
-        asset=gl.Asset(generator="mocap", version="2.0"),
-        scene=0, scenes=[gl.Scene(nodes=[root, mesh_node])], nodes=nodes,
-        meshes=[gl.Mesh(name="body", primitives=[
-            gl.Primitive(attributes=gl.Attributes(**attrs), indices=ind)])],
-        skins=[gl.Skin(joints=list(range(J)), inverseBindMatrices=ibm_acc, skeleton=root)],
-        animations=[gl.Animation(name="motion", samplers=samplers, channels=channels)],
-        accessors=b.accessors, bufferViews=b.views, buffers=[gl.Buffer(byteLength=len(b.data))])
-    doc.set_binary_blob(bytes(b.data))
-    path = Path(path)
-    doc.save_binary(str(path))
-    return path
+    parts["meshes"].append(gl.Mesh(name=f"{prefix}body", primitives=[
+        gl.Primitive(attributes=gl.Attributes(**attrs), indices=ind)]))
+    parts["skins"].append(gl.Skin(name=f"{prefix}skin" if prefix else None,
+                                  joints=list(range(base, base + J)), inverseBindMatrices=ibm_acc,
+                                  skeleton=base + root))
+    parts["scene"] += [base + root, mesh_node]
+
+    def channel(node: int, what: str, values: np.ndarray, kind: str, interpolation: str = "LINEAR") -> None:
+        samplers.append(gl.AnimationSampler(input=times, output=b.add(values, kind, gl.FLOAT),
+                                            interpolation=interpolation))
+        channels.append(gl.AnimationChannel(sampler=len(samplers) - 1,
+                                            target=gl.AnimationChannelTarget(node=node, path=what)))
+
+    for j in range(J):
+        channel(base + j, "rotation", quat[:, j], "VEC4")
+    channel(base + root, "translation", root_t, "VEC3")
+    if visible is not None:
+        scale = np.repeat(np.asarray(visible, np.float32)[:, None], 3, axis=1)
+        channel(base + root, "scale", scale, "VEC3", "STEP")

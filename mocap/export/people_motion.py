@@ -100,25 +100,76 @@ def load_people_motion(path: str | Path) -> dict[str, np.ndarray]:
     path, a = read_motion_npz(path)
     if str(a.get("format", "")) != FORMAT:
         raise MotionFileError(f"{path}: format is {str(a.get('format', ''))!r}, expected {FORMAT!r}")
+    for k in ("live", "person_ids", "chi", "joints", "fps"):
+        if k not in a:
+            raise MotionFileError(f"{path}: missing field '{k}'")
+    if a["live"].ndim != 2:
+        raise MotionFileError(f"{path}: field 'live' is {a['live'].shape}, expected (F, P)")
     F, P = a["live"].shape
     for k in ("chi", "joints"):
         if a[k].shape[:2] != (F, P):
             raise MotionFileError(f"{path}: field '{k}' is {a[k].shape}, expected ({F}, {P}, ...)")
+    check_person_ids(a["person_ids"], P, path)
     return a
 
 
-def person_motion(path: str | Path, person: int):
-    """Person ``person`` (a track id) of a several-people motion.npz as a single-person
+def check_person_ids(ids: np.ndarray, people: int, path) -> list[int]:
+    """The track ids of a people motion file as ints: ``people`` distinct non-negative integers
+    (they name files: ``p<id>``); anything else raises :class:`MotionFileError` (one line)."""
+    ids = np.asarray(ids)
+    if ids.shape != (people,) or not np.issubdtype(ids.dtype, np.integer):
+        shown = repr(ids.tolist())[:80]
+        raise MotionFileError(f"{path}: field 'person_ids' must be {people} integers (track ids), got "
+                              f"{shown}; refused (ids name the exported files)")
+    if (ids < 0).any() or len(set(ids.tolist())) != people:
+        raise MotionFileError(f"{path}: field 'person_ids' {ids.tolist()[:20]} must be distinct "
+                              "non-negative integers; refused (ids name the exported files)")
+    return [int(i) for i in ids]
+
+
+def person_label(pid: int) -> str:
+    """The name of track ``pid`` in exported files: ``p<id>`` (file names, marker and node prefixes)."""
+    return f"p{int(pid)}"
+
+
+def live_people(a: Mapping[str, np.ndarray]) -> list[int]:
+    """The ids of the people of a people motion file that are live in at least one frame."""
+    return [int(pid) for p, pid in enumerate(a["person_ids"]) if a["live"][:, p].any()]
+
+
+def people_points(a: Mapping[str, np.ndarray], which: str = "landmarks") -> tuple[list[str], np.ndarray]:
+    """Every person's points in one array for TRC / C3D: names ``p<id>_<name>`` and points
+    (F, P * L, 3) world metres (person-major; NaN where the person is not live). ``which``:
+    landmarks, joints or tracker (a marker tracker's own landmarks)."""
+    keys = {"landmarks": ("landmarks", "landmark_names"), "joints": ("joints", "joint_names"),
+            "tracker": ("tracker_landmarks", "tracker_landmark_names")}
+    if which not in keys:
+        raise ValueError(f"which must be 'landmarks', 'joints' or 'tracker', got {which!r}")
+    key, name_key = keys[which]
+    if key not in a:
+        raise ValueError("this run's tracker reported no landmarks of its own (marker runs do)")
+    pts = np.asarray(a[key], np.float64)                         # (F, P, L, 3)
+    F, P, L = pts.shape[:3]
+    pts = np.where(np.asarray(a["live"], bool)[:, :, None, None], pts, np.nan)
+    names = [f"{person_label(pid)}_{n}" for pid in a["person_ids"] for n in a[name_key]]
+    return names, pts.reshape(F, P * L, 3)
+
+
+def person_motion(path: str | Path, person: int, arrays: Mapping | None = None):
+    """Person ``person`` (a track id) of a several-people motion.npz (``arrays``: its arrays,
+    already read by :func:`load_people_motion`) as a single-person
     :class:`mocap.export.motion.Motion` over the frames the person is live (what the exporters
     write); an unknown id raises :class:`MotionFileError` naming the ids there are."""
     from mocap.export.motion import INFO, Motion
 
-    a = load_people_motion(path)
+    a = load_people_motion(path) if arrays is None else arrays
     ids = [int(i) for i in a["person_ids"]]
     if person not in ids:
         raise MotionFileError(f"{path}: no person {person} (the run's people: {ids})")
     p = ids.index(person)
     fr = np.flatnonzero(a["live"][:, p])
+    if not len(fr):
+        raise MotionFileError(f"{path}: person {person} has no frame with an estimate (nothing to export)")
     pick = lambda k: a[k][fr, p]          # noqa: E731
     names = lambda k: tuple(str(n) for n in a[k])  # noqa: E731
     per_frame = {k: pick(k) for k in ("energy", "reprojection_px", "initial", "lost", "tracker_landmarks")
@@ -133,3 +184,41 @@ def person_motion(path: str | Path, person: int):
                   joint_rotations=pick("joint_rotations"), rest_joints=a["rest_joints"][p],
                   root_transform=pick("root_transform"), landmarks=pick("landmarks"),
                   landmark_names=names("landmark_names"), per_frame=per_frame, info=info)
+
+
+def person_timeline(path: str | Path, person: int, arrays: Mapping | None = None):
+    """(motion, live): person ``person`` over every frame of the run (a glTF animation shares
+    one timeline): :func:`person_motion` with each frame where the person is not live holding
+    the pose of the nearest live frame, and ``live`` (F,) bool saying which frames are real."""
+    from dataclasses import replace
+
+    a = load_people_motion(path) if arrays is None else arrays
+    m = person_motion(path, person, a)
+    live = np.asarray(a["live"][:, [int(i) for i in a["person_ids"]].index(person)], bool)
+    fr = np.flatnonzero(live)
+    F = len(live)
+    near = np.abs(np.arange(F)[:, None] - fr[None]).argmin(axis=1)        # (F,) index into fr
+    return replace(m, frame_index=a["frame_index"], timestamps=a["timestamps"],
+                   **{k: getattr(m, k)[near] for k in ("chi", "alpha", "joints", "joint_rotations",
+                                                       "root_transform", "landmarks")},
+                   per_frame={}), live
+
+
+def people_summary_text(a: Mapping[str, np.ndarray]) -> str:
+    """A few lines on a people motion file's arrays: frames, people, each person's frames."""
+    F, P = a["live"].shape
+    lines = [f"people motion: {F} frames at {float(a['fps']):g} fps, {P} people "
+             f"(ids {', '.join(str(int(i)) for i in a['person_ids'])}), {len(a['joint_names'])} joints, "
+             f"body {str(a.get('body', '?'))} (model {str(a.get('model_hash', '?'))}), "
+             f"tracker {str(a.get('tracker', '?'))}"]
+    for p, pid in enumerate(a["person_ids"]):
+        live = np.flatnonzero(a["live"][:, p])
+        if not len(live):
+            lines.append(f"  person {int(pid)}: no frame")
+            continue
+        lost = int(np.asarray(a["lost"])[:, p].sum()) if "lost" in a else 0
+        ended = " (ended)" if "ended" in a and bool(a["ended"][p]) else ""
+        lines.append(f"  person {int(pid)}: {len(live)} frame{'s' * (len(live) != 1)}, "
+                     f"{int(live[0])}-{int(live[-1])}{ended}"
+                     + (f", {lost} lost" if lost else ""))
+    return "\n".join(lines)

@@ -24,7 +24,9 @@ from mocap.export.axes import OPENSIM_FROM_WORLD, points_to
 from mocap.export.motion import Motion
 
 
-def trc_text(motion: Motion, which: str = "landmarks", file_name: str = "motion.trc") -> str:
+def motion_points(motion: Motion, which: str = "landmarks") -> tuple[tuple[str, ...], np.ndarray]:
+    """(names, points (F, L, 3) world metres) of a motion's ``which`` markers: landmarks,
+    joints or tracker (a marker tracker's own landmarks)."""
     if which == "landmarks":
         names, pts = motion.landmark_names, motion.landmarks
     elif which == "joints":
@@ -36,9 +38,20 @@ def trc_text(motion: Motion, which: str = "landmarks", file_name: str = "motion.
         pts = motion.per_frame["tracker_landmarks"]
     else:
         raise ValueError(f"which must be 'landmarks', 'joints' or 'tracker', got {which!r}")
+    return names, pts
+
+
+def trc_text(motion: Motion, which: str = "landmarks", file_name: str = "motion.trc") -> str:
+    names, pts = motion_points(motion, which)
+    return points_trc_text(names, pts, motion.fps, motion.timestamps, file_name)
+
+
+def points_trc_text(names, pts: np.ndarray, fps: float, timestamps: np.ndarray,
+                    file_name: str = "motion.trc") -> str:
+    """The TRC text of points (F, L, 3) world metres named ``names`` (L,) (NaN: blank)."""
     F, L = len(pts), len(names)
-    mm = 1e3 * points_to(OPENSIM_FROM_WORLD, pts)
-    fps = f"{motion.fps:.2f}"
+    mm = 1e3 * points_to(OPENSIM_FROM_WORLD, np.asarray(pts, np.float64))
+    fps = f"{fps:.2f}"
     lines = [f"PathFileType\t4\t(X/Y/Z)\t{file_name}",
              "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
              f"{fps}\t{fps}\t{F}\t{L}\tmm\t{fps}\t1\t{F}",
@@ -47,7 +60,7 @@ def trc_text(motion: Motion, which: str = "landmarks", file_name: str = "motion.
              ""]
     for f in range(F):
         vals = "\t".join("" if not np.isfinite(v) else f"{v:.4f}" for v in mm[f].ravel())
-        lines.append(f"{f + 1}\t{motion.timestamps[f]:.6f}\t{vals}")
+        lines.append(f"{f + 1}\t{timestamps[f]:.6f}\t{vals}")
     return "\n".join(lines) + "\n"
 
 
@@ -56,4 +69,12 @@ def write_trc(motion: Motion, path: str | Path, which: str = "landmarks",
     """file_name: the name the header gives (default: the file's own)."""
     path = Path(path)
     path.write_text(trc_text(motion, which, file_name or path.name))
+    return path
+
+
+def write_points_trc(names, pts: np.ndarray, fps: float, timestamps: np.ndarray, path: str | Path,
+                     file_name: str | None = None) -> Path:
+    """:func:`points_trc_text` to ``path`` (several people: names ``p<id>_<marker>``)."""
+    path = Path(path)
+    path.write_text(points_trc_text(names, pts, fps, timestamps, file_name or path.name))
     return path

@@ -47,7 +47,7 @@ from mocap.recording.sink import RunInfo
 from mocap.run_folder.attempt import own_run_folder, run_attempt, seal_run
 from mocap.run_folder.manifest import manifest_problem
 from mocap.run_folder.metadata import run_metadata
-from mocap.run_folder.people import people_metrics
+from mocap.run_folder.people import one_person_flag, people_metrics, several_people_evidence
 from mocap.run_folder.resume import (
     config_changes,
     restore_previous,
@@ -174,6 +174,7 @@ class _Prepared:
     initial: dict
     init_info: dict
     frames: int
+    several_people: dict | None = None
 
 
 def _prepare(settings: RunSettings, threads, make_body, make_sequence, make_tracker, wrap) -> _Prepared:
@@ -194,19 +195,29 @@ def _prepare(settings: RunSettings, threads, make_body, make_sequence, make_trac
     if tracker.several_people and wrap is not None:
         raise ValueError(f"tracker {tracker.name!r} runs only with mocap track (this command wraps the "
                          "tracker)")
+    # several people in the data, one followed: said now and kept in metrics.json (a flag, not an
+    # error: following one subject among bystanders is what data.person=subject is for)
+    several = several_people_evidence(seq)
+    if tracker.several_people and several is not None and seq.meta.get("person") == "subject":
+        # the opposite mistake, and one that cannot be what was meant: refused before any work
+        raise ValueError(f"tracker {tracker.name!r} tracks several people, but data.person=subject keeps one "
+                         f"per view ({several['why'].split(' (')[0]}): use data.person=all")
+    several = None if tracker.several_people else several
+    if several is not None:
+        print(f"WARNING: {one_person_flag(several)}", file=sys.stderr)
     start = run_start(init.mode, tracker, body, seq, rng, init.noise_deg, init.noise_translation, init.cache)
     # ground truth this body cannot be scored against fails here, naming the joints, not after
     # the initialisation and tracking; several people are scored per person at the end
     scorer = None
-    if seq.gt is not None and not tracker.several_people:
+    if seq.gt is not None:
         scorer = NameScorer(body, seq.gt.person(0))
-        if seq.gt.person_names:
-            scorer = None       # several people in the truth: scored per person (mocap.eval.people)
+        if seq.gt.person_names or tracker.several_people:
+            scorer = None       # several people in the truth or the run: scored per person at the end
     with thread_budget(threads):
         initial, init_info = start(frame_of(seq, 0))
     stepped = wrap(tracker, body, seq) if wrap is not None else tracker
     return _Prepared(body, seq, tracker, stepped, scorer, initial, init_info,
-                     seq.num_frames if frames is None else frames)
+                     seq.num_frames if frames is None else frames, several)
 
 
 def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, source, extra, overrides):
@@ -241,6 +252,9 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
             metrics["quality"] = quality_flags(body, result.estimates[-1].alpha, result.estimates,
                                                float(np.linalg.norm(seq.rig.sizes, axis=1).max()),
                                                extra_flags=tracker.start_up_flags)
+            if p.several_people is not None:
+                metrics["several_people_data"] = p.several_people
+                metrics["quality"].setdefault("flags", []).append(one_person_flag(p.several_people))
         if seq.meta.get("dropped_nonfinite"):        # data.nonfinite=drop: what was left out
             metrics["dropped_nonfinite"] = seq.meta["dropped_nonfinite"]
         if extra is not None:
@@ -333,9 +347,12 @@ def _summary(metrics: dict) -> str:
     if "people_per_frame" in metrics:           # several people
         accuracy = ""
         if "per_person" in metrics:
-            accuracy = (f"{metrics['identity_switches']} identity switches, "
-                        f"MPJPE {metrics['mpjpe_mm']:.1f} mm, "
-                        f"PCP min {100 * metrics.get('pcp_min', float('nan')):.1f} %, ")
+            if "people_in_ground_truth" in metrics:
+                accuracy = (f"{metrics['people_tracked']} of {metrics['people_in_ground_truth']} people "
+                            "tracked, ")
+            accuracy += (f"{metrics['identity_switches']} identity switches, "
+                         f"MPJPE {metrics['mpjpe_mm']:.1f} mm, "
+                         f"PCP min {100 * metrics.get('pcp_min', float('nan')):.1f} %, ")
         return f"{len(metrics['people'])} people, {accuracy}{metrics['frames_per_second']:.2f} frames/s"
     accuracy = ""
     if "mpjpe_mm" in metrics:

@@ -3,9 +3,15 @@
     mocap export outputs/track/<run> --format bvh
     mocap export outputs/track/<run> --format gltf --out walk.glb --overwrite
 
+    mocap export outputs/track/<people run> --format bvh      # one BVH per person: motion_p<id>.bvh
+    mocap export runs/walk --format gltf                      # a clip from mocap import-motion
+
 Default output: <run dir>/motion.<bvh|trc|glb|c3d>. The run folder must be a complete run (a
 valid manifest.json); --accept-unverified exports one written before manifests, with a
-WARNING. Axes and units per format: docs/data_formats.md ("Out: exports"), mocap/export/axes.py.
+WARNING. A several-people run: one BVH per person (<out stem>_p<id>.bvh), one TRC / C3D with
+every person's markers (p<id>_<marker>), one GLB with a skinned body per person; --person ID
+exports one of them alone. Axes and units per format: docs/data_formats.md ("Out: exports"),
+mocap/export/axes.py.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--accept-unverified", action="store_true",
                    help="export a run folder without a valid manifest.json (written before manifests)")
     args = p.parse_args(argv)
-    from mocap.run_folder.export import export_run  # (the numeric stack: after the arguments)
+    from mocap.run_folder.export import export_files  # (the numeric stack: after the arguments)
 
     t = time.perf_counter()
     if args.accept_unverified:
@@ -45,9 +51,9 @@ def main(argv: list[str] | None = None) -> int:
         problem = manifest_problem(args.run_dir)
         if problem is not None:
             print(f"WARNING: {args.run_dir}: exporting an unverified run ({problem})", file=sys.stderr)
-    out = export_run(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers,
-                     require_manifest=not args.accept_unverified, person=args.person,
-                     influences=args.influences)
-    print(f"wrote {out} ({time.perf_counter() - t:.2f} s)")
+    outs = export_files(args.run_dir, args.format, args.out, args.overwrite, markers=args.markers,
+                        require_manifest=not args.accept_unverified, person=args.person,
+                        influences=args.influences)
+    print(f"wrote {', '.join(map(str, outs))} ({time.perf_counter() - t:.2f} s)")
     return 0
 

@@ -2,10 +2,13 @@
 print a headless summary (frames, entities, final metrics) read from the file itself, and the
 run's motion.npz (frames, APF calls, misaligned limbs) when the run directory has one. A run
 directory that is not a complete run (no valid manifest.json) is flagged: a WARNING line,
-the summary of what is there (e.g. recording.failed.rrd), and exit status 1.
+the summary of what is there (e.g. recording.failed.rrd), and exit status 1. A several-people
+run's motion is summarised per person. A motion without a recording (``mocap import-motion``'s
+folder or .npz) has nothing to open in the viewer: its motion's summary is printed.
 
     mocap replay outputs/track/<run>            # a run directory
     mocap replay path/to/recording.rrd [--summary]
+    mocap replay runs/walk                      # an imported clip: its motion's summary
 """
 
 from __future__ import annotations
@@ -31,6 +34,40 @@ def find_recording(target: Path) -> Path:
     return target
 
 
+def motion_text(path: Path) -> str:
+    """The summary of a motion.npz of either format (one person, several people), or why it
+    cannot be read."""
+    from mocap.export.motion import MotionFileError, load_motion
+    from mocap.export.motion import summary_text as motion_summary
+    from mocap.export.people_motion import load_people_motion, people_summary_text
+    from mocap.run_folder.export import PEOPLE_FORMAT, motion_file_facts
+
+    try:
+        if motion_file_facts(path).get("format") == PEOPLE_FORMAT:
+            return people_summary_text(load_people_motion(path))
+        return motion_summary(load_motion(path))
+    except MotionFileError as exc:
+        return f"{path.name} unreadable: {exc}"
+
+
+def replay_motion(target: Path) -> int:
+    """A motion without a recording (an imported clip's folder or .npz): its summary; a run
+    folder that should have a recording is flagged (exit status 1)."""
+    from mocap.run_folder.export import motion_file_facts
+
+    path = target if target.is_file() else target / "motion.npz"
+    facts = motion_file_facts(path)
+    if not facts:
+        raise ValueError(f"{path}: not a readable motion file (.npz)")
+    if not facts.get("imported"):
+        print(f"WARNING: {target}: no recording.rrd (a run that recorded nothing, or not finished); the "
+              "motion's summary only", file=sys.stderr)
+    else:
+        print(f"{target}: an imported clip (mocap import-motion), no recording to open: its motion")
+    print(motion_text(path))
+    return 0 if facts.get("imported") else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     p = ArgumentParser(prog="mocap replay", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -39,6 +76,11 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     from mocap.recording.reader import read_recording, summary_text
 
+    target = args.target
+    if (target.is_file() and target.suffix == ".npz") or (
+            target.is_dir() and (target / "motion.npz").is_file()
+            and not any((target / n).is_file() for n in ("recording.rrd", "recording.failed.rrd"))):
+        return replay_motion(target)
     rrd = find_recording(args.target)
     problem = None
     if args.target.is_dir():
@@ -55,12 +97,6 @@ def main(argv: list[str] | None = None) -> int:
     print(summary_text(read_recording(rrd)))
     motion = rrd.parent / "motion.npz"
     if motion.is_file():
-        from mocap.export.motion import MotionFileError, load_motion
-        from mocap.export.motion import summary_text as motion_summary
-
-        try:
-            print(motion_summary(load_motion(motion)))
-        except MotionFileError as exc:
-            print(f"motion.npz unreadable: {exc}")
+        print(motion_text(motion))
     return 1 if problem is not None else 0
 

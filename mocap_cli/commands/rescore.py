@@ -6,7 +6,11 @@ motion.npz (the poses and shape it produced) and the data of its stored configur
 rewrites the accuracy part of its metrics.json (:func:`mocap.eval.run_metrics.accuracy_metrics`:
 with a true surface in the data, the surface metrics and the surface oracle too);
 speed, effort and initialisation figures are kept. The figures it replaces are kept under
-``rescored.previous``. The recording keeps the metrics it was written with.
+``rescored.previous``. The recording keeps the metrics it was written with. A several-people
+run (``tracker=marker_people``) is scored per person with the best assignment of its tracks to
+the true people (:func:`mocap.run_folder.people.people_accuracy_metrics`, as the run itself
+was; joints only). An imported clip (``mocap import-motion``) has no data to score against and
+is refused.
 
     mocap rescore multirun/mismatch           # every run below a folder
     mocap rescore outputs/track/<run> --dry-run
@@ -22,6 +26,7 @@ import json
 import subprocess
 import sys
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from mocap.run_folder.lock import RunFolderBusy, run_lock
@@ -29,7 +34,10 @@ from mocap.run_folder.manifest import PREVIOUS, read_manifest, require_complete,
 from mocap_cli import source_checkout
 from mocap_cli.errors import ArgumentParser
 
-SUMMARY = ("mpjpe_mm", "frames_lost", "pcp")
+SUMMARY = ("mpjpe_mm", "frames_lost", "pcp", "pcp_min", "identity_switches")
+#: what a several-people run's rescore rewrites (mocap.run_folder.people.people_accuracy_metrics)
+PEOPLE_ACCURACY = ("per_person", "identity_switches", "assignment", "mpjpe_mm", "pcp_min",
+                   "people_in_ground_truth", "people_tracked", "frames_lost", "track_jumps")
 
 
 def run_dirs(targets: list[Path]) -> list[Path]:
@@ -37,6 +45,9 @@ def run_dirs(targets: list[Path]) -> list[Path]:
     for t in targets:
         if not t.exists():
             raise FileNotFoundError(f"{t}: no such run directory")
+        if t.is_file() or (t / "motion.npz").is_file() and not (t / "metrics.json").exists():
+            raise ValueError(f"{t}: a motion without a run (mocap import-motion writes one): no data to "
+                             "score it against; rescore takes run folders of mocap track")
         found = [t] if (t / "metrics.json").is_file() else sorted(p.parent for p in t.rglob("metrics.json"))
         out += [d for d in found if (d / "motion.npz").is_file() and d.name != PREVIOUS]
     return list(dict.fromkeys(out))
@@ -58,16 +69,17 @@ def rescore(run: Path, version: str, dry_run: bool = False,
     where = str(run / "metrics.json")
     body = run_body(metrics["config"], where=where)
     seq = run_sequence(metrics["config"], body, where=where)
-    if seq.gt is None:
-        raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
-    motion = load_motion(run)
-    F = motion.num_frames
-    if motion.chi.shape[1] != body.num_dofs:
-        raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
-    oracle = oracle_settings(metrics["config"].get("oracle"))
-    if oracle_cache is not None:
-        oracle = replace(oracle, cache=str(oracle_cache))
-    new = accuracy_metrics(body, seq, motion.chi, motion.alpha, oracle)
+    from mocap.run_folder.export import PEOPLE_FORMAT, motion_file_facts
+
+    if motion_file_facts(run / "motion.npz").get("format") == PEOPLE_FORMAT:
+        new, F = _rescore_people(run, body, seq)
+    else:
+        if seq.gt is None:
+            raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
+        oracle = oracle_settings(metrics["config"].get("oracle"))
+        if oracle_cache is not None:
+            oracle = replace(oracle, cache=str(oracle_cache))
+        new, F = _rescore_person(run, body, seq, load_motion, partial(accuracy_metrics, oracle=oracle))
     old = {k: metrics[k] for k in new if k in metrics}
     if not dry_run:
         previous = {k: old[k] for k in SUMMARY if k in old}
@@ -80,6 +92,30 @@ def rescore(run: Path, version: str, dry_run: bool = False,
         write_json(run / "metrics.json", metrics)
         write_manifest(run, list(manifest["files"]), manifest.get("overrides"))
     return old, new
+
+
+def _rescore_people(run: Path, body, seq) -> tuple[dict, int]:
+    """The per-person accuracy of a several-people run, and its frames."""
+    from mocap.data.people_truth import people_truth
+    from mocap.export.people_motion import load_people_motion
+    from mocap.run_folder.people import people_accuracy_metrics
+
+    if seq.gt is None and people_truth(seq) is None:
+        raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
+    arrays = load_people_motion(run)
+    if arrays["chi"].shape[2] != body.num_dofs:
+        raise ValueError(f"{run}: motion has {arrays['chi'].shape[2]} DOFs, body {body.name!r} "
+                         f"{body.num_dofs}")
+    scores = people_accuracy_metrics(body, seq, arrays)
+    return {k: scores[k] for k in PEOPLE_ACCURACY if k in scores}, int(arrays["live"].shape[0])
+
+
+def _rescore_person(run: Path, body, seq, load_motion, accuracy_metrics) -> tuple[dict, int]:
+    motion = load_motion(run)
+    F = motion.num_frames
+    if motion.chi.shape[1] != body.num_dofs:
+        raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
+    return accuracy_metrics(body, seq, motion.chi, motion.alpha), F
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -109,6 +145,8 @@ def main(argv: list[str] | None = None) -> int:
             continue
         line = (f"[{i}/{len(runs)}] {run}: MPJPE {old.get('mpjpe_mm', float('nan')):.1f} -> "
                 f"{new['mpjpe_mm']:.1f} mm")
+        if "identity_switches" in new:
+            line += f", identity switches {old.get('identity_switches', '?')} -> {new['identity_switches']}"
         if "oracle" in new:
             line += (f", oracle {old.get('oracle', {}).get('raw_mm', float('nan')):.1f} -> "
                      f"{new['oracle']['raw_mm']:.1f} mm")

@@ -49,3 +49,39 @@ def test_import_motion_errors(body, tmp_path, capsys):
         assert len(err.splitlines()) == 1
     assert (tmp_path / "exists.npz").read_bytes() == b"keep"
     assert not (tmp_path / "b.npz").exists() and not (tmp_path / "c.npz").exists()
+
+
+def test_imported_motion_is_exported_and_replayed_and_not_rescored(body, tmp_path, capsys):
+    """docs/clips.md: export and replay take import-motion's file (its folder or the .npz
+    itself); what cannot use it (rescore: no data to score against) says so in one line."""
+    from mocap.export.axes import BVH_FROM_WORLD
+    from tests.export.test_exports import read_bvh_joints
+
+    chi, alpha = own_motion(body, "walk", frames=4, seed=1)
+    clip = own_bvh(body, chi, alpha, tmp_path / "own.bvh")
+    assert main(["import-motion", str(clip), "--out", str(tmp_path / "run")]) == 0
+    assert main(["import-motion", str(clip), "--out", str(tmp_path / "walk.npz")]) == 0
+    capsys.readouterr()
+    motion = load_motion(tmp_path / "run")
+    for fmt, ext in (("bvh", ".bvh"), ("trc", ".trc"), ("c3d", ".c3d"), ("gltf", ".glb")):
+        assert main(["export", str(tmp_path / "run"), "--format", fmt]) == 0, capsys.readouterr().err
+        assert (tmp_path / "run" / f"motion{ext}").is_file()
+    _, pos, _ = read_bvh_joints(tmp_path / "run" / "motion.bvh")         # read back: the motion's joints
+    assert 1e3 * np.abs(pos - motion.joints.astype(np.float64) @ BVH_FROM_WORLD.T).max() < 1.0
+    assert main(["export", str(tmp_path / "walk.npz"), "--format", "bvh"]) == 0      # the .npz by itself
+    assert (tmp_path / "walk.bvh").is_file()
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path / "run")]) == 0
+    out = capsys.readouterr().out
+    assert "an imported clip" in out and "motion: 4 frames" in out and "tracker retarget" in out
+    assert main(["replay", str(tmp_path / "walk.npz")]) == 0
+    assert main(["rescore", str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no data to score it against" in err and len(err.splitlines()) == 1
+    # a run's motion.npz alone is not exported by itself (its folder says whether it is complete)
+    arrays = dict(np.load(tmp_path / "walk.npz"))
+    arrays["tracker"] = np.array("marker_apf")
+    np.savez(tmp_path / "other.npz", **arrays)
+    assert main(["export", str(tmp_path / "other.npz"), "--format", "bvh"]) == 2
+    assert "is exported by its run folder" in capsys.readouterr().err
+    assert not (tmp_path / "other.bvh").exists()
