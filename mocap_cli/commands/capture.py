@@ -421,6 +421,7 @@ def capture_summary(out: Path, record: dict) -> dict:
     summary = {"frames": metrics.get("frames"),
                "people": len(people) if isinstance(people, list) else 1,
                "frames_without_detections": len(metrics.get("frames_without_detections") or []),
+               "frames_seen_by_fewer_than_2_cameras": _under_two_views(out / "detect" / "detect.json"),
                "lost_frames": quality.get("lost_frames"),
                "reprojection_median_px": metrics.get("reprojection_median_px"),
                "reprojection_median_px_per_view": metrics.get("reprojection_median_px_per_view"),
@@ -434,10 +435,23 @@ def capture_summary(out: Path, record: dict) -> dict:
     return summary
 
 
+def _under_two_views(detect_json: Path) -> int | None:
+    """Detected frames in which fewer than two cameras found a person (nothing to triangulate)."""
+    try:
+        views = json.loads(detect_json.read_text())["views"]
+    except (OSError, ValueError, KeyError):
+        return None
+    from collections import Counter
+
+    missing = Counter(n for v in views.values() for n in v.get("missing_frames", []))
+    return sum(1 for n, k in missing.items() if len(views) - k < 2)
+
+
 def summary_lines(out: Path, s: dict) -> list[str]:
-    lost = "n/a" if s["lost_frames"] is None else s["lost_frames"]
-    lines = [f"frames: {s['frames']}, people: {s['people']}, lost frames: {lost} (frames without detections: "
-             f"{s['frames_without_detections']})"]
+    lost = "not measured by this tracker" if s["lost_frames"] is None else s["lost_frames"]
+    lines = [f"frames: {s['frames']}, people: {s['people']}, lost frames: {lost}; frames without detections: "
+             f"{s['frames_without_detections']}, seen by fewer than 2 cameras: "
+             f"{s['frames_seen_by_fewer_than_2_cameras']}"]
     if s.get("reprojection_median_px_per_view"):
         per = ", ".join(f"{k} {v:.1f}" for k, v in s["reprojection_median_px_per_view"].items())
         lines.append(f"reprojection median px: {s['reprojection_median_px']:.1f} (per camera: {per})")
@@ -484,7 +498,7 @@ def main(argv: list[str] | None = None) -> int:
             why = f" (changed: {', '.join(changed)})" if changed else ""
             _say(f"[{stage.name}] start{why}")
             record = plan.start_stage(out, record, stages, i)
-            t = time.perf_counter()
+            t, cpu = time.perf_counter(), time.process_time()
             outputs = None
             if stage.name == "detect":
                 run_detect(a, inputs, out, people, detect_calib)
@@ -495,8 +509,9 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 outputs = run_export(out, formats)
             seconds = time.perf_counter() - t
-            record = plan.finish_stage(out, record, stage, seconds, outputs)
-            _say(f"[{stage.name}] done in {seconds:.1f} s")
+            cpu = time.process_time() - cpu
+            record = plan.finish_stage(out, record, stage, seconds, outputs, cpu_seconds=round(cpu, 3))
+            _say(f"[{stage.name}] done in {seconds:.1f} s ({cpu:.1f} s CPU)")
         summary = capture_summary(out, record)
         record = {**record, "summary": summary}
         plan.write_record(out, record)
