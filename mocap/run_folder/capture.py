@@ -18,6 +18,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mocap.run_folder.lock import LOCK
 from mocap.safe_files import write_text_atomic
 
 FORMAT = "mocap-capture-v1"
@@ -40,8 +41,8 @@ def check_capture_folder(out: str | Path) -> dict:
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"output {out} is a file: choose another --out")
-    if not out.is_dir() or not any(out.iterdir()):
-        return {}
+    if not out.is_dir() or not any(p.name != LOCK for p in out.iterdir()):
+        return {}           # (a lock file alone: a capture killed before its first stage)
     head = out / RECORD
     if not head.is_file():
         raise FileExistsError(f"output {out} is not empty and was not written by mocap capture "

@@ -201,3 +201,24 @@ def test_capture_end_to_end_resumes_and_reruns_only_what_changed(tmp_path, capsy
     assert again[files[1]] != after[files[1]] and again[files[2]] != after[files[2]]
     track = json.loads((out / "capture.json").read_text())["stages"]["track"]
     assert "seed=1" in track["settings"]["overrides"]
+
+
+@pytest.mark.parametrize("tracker, people", [("marker_apf", 1), ("hybrid", 1), ("marker_people", "auto")])
+def test_the_track_stage_overrides_compose_as_mocap_track_takes_them(tmp_path, tracker, people):
+    from mocap_cli.commands import capture
+    from mocap_cli.hydra_edge import compose
+
+    rec = _recording(tmp_path / "rec")
+    a = capture._parser().parse_args([str(rec), "--out", str(tmp_path / "out"), "--stop", "2",
+                                      "--track-set", "frames=2"])
+    inputs = capture.Inputs(rec, rec / "videos", rec / "Calib.toml", CAMERAS, 3, 30.0)
+    overrides = capture.track_overrides(a, inputs, tmp_path / "out", people, tracker, rec / "Calib.toml")
+    cfg = compose("track", [o for o in overrides if not o.startswith("hydra.")])
+    assert cfg.tracker.name == tracker and cfg.init.mode == "tracker" and cfg.frames == 2
+    assert Path(cfg.data.path) == (tmp_path / "out" / "detect").resolve()
+    assert Path(cfg.data.calibration) == (rec / "Calib.toml").resolve()
+    if tracker == "hybrid":     # the silhouettes: the detected masks, the detected frames
+        assert cfg.data._target_.endswith("video_sequence") and cfg.data.stop == 2
+        assert Path(cfg.data.masks) == (tmp_path / "out" / "detect" / "masks").resolve()
+    else:
+        assert cfg.data.person == ("subject" if people == 1 else "all") and cfg.data.fps == 30
