@@ -2,7 +2,7 @@
 (calibrate, where asked) -> track -> export into one folder:
 
     mocap capture ../shared/data/pose2sim-demo --out outputs/capture_demo --stop 60
-    mocap capture REC --out OUT --tracker hybrid --formats bvh,glb
+    mocap capture REC --out OUT --tracker hybrid --formats bvh,gltf
     mocap capture REC --out OUT --calibrate people --intrinsics-from intrinsics.toml --height 1.75
     mocap capture REC --out OUT --calibrate board --intrinsics BOARD_CLIPS --board-views SYNC_CLIPS
     mocap capture REC --out OUT --people auto        # several people: tracker=marker_people
