@@ -382,8 +382,9 @@ def run_track(overrides: list[str], tracker: str) -> None:
     from mocap_cli.commands import track
 
     what = "silhouettes" if not tracker.startswith("marker_") else "keypoints"
-    _say(f"  start-up: {tracker} initialises itself from the first frames' {what} (no ground truth; "
-         f"{'about 30 s' if tracker.startswith('marker_') else '30-70 s'} on 2 cores) ...")
+    cost = "seconds to a minute" if tracker.startswith("marker_") else "a minute or more on busy cores"
+    _say(f"  start-up: {tracker} initialises itself from the first frames' {what} (no ground truth): "
+         f"{cost} before the first frame ...")
     track.main(overrides)
 
 
