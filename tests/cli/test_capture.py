@@ -222,3 +222,10 @@ def test_the_track_stage_overrides_compose_as_mocap_track_takes_them(tmp_path, t
         assert Path(cfg.data.masks) == (tmp_path / "out" / "detect" / "masks").resolve()
     else:
         assert cfg.data.person == ("subject" if people == 1 else "all") and cfg.data.fps == 30
+
+
+def test_help_and_a_bad_flag_import_no_numeric_stack():
+    from tests.cli.test_startup import imported_by
+
+    assert imported_by(["capture", "--help"]) == (0, [])
+    assert imported_by(["capture", "--no-such-flag"]) == (2, [])
