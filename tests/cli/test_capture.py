@@ -229,3 +229,35 @@ def test_help_and_a_bad_flag_import_no_numeric_stack():
 
     assert imported_by(["capture", "--help"]) == (0, [])
     assert imported_by(["capture", "--no-such-flag"]) == (2, [])
+
+
+@pytest.mark.skipif(DEMO is None, reason="Pose2Sim demo not present")
+def test_ctrl_c_during_detection_leaves_no_stage_record(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from mocap.video.detector import detector_available
+
+    if not detector_available():
+        pytest.skip("mediapipe (the detector) not installed")
+    out = tmp_path / "cap"
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "PYTHONPATH": str(REPO)}
+    p = subprocess.Popen([sys.executable, "-m", "mocap_cli", "capture", str(DEMO), "--out", str(out),
+                          "--stop", "30", "--scale", "0.25", "--no-progress"], cwd=REPO, env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline().strip() == "[detect] start"
+        time.sleep(2.0)                                         # inside the detection
+        p.send_signal(signal.SIGINT)
+        stdout, stderr = p.communicate(timeout=60)
+    finally:
+        p.kill()
+    assert p.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1].startswith("mocap capture: interrupted"), stderr
+    assert "[detect] done" not in stdout
+    assert json.loads((out / "capture.json").read_text())["stages"] == {}      # nothing to trust
+    assert not (out / "track").exists() and not (out / "export").exists()
+    assert not (out / ".mocap.lock").exists()
