@@ -31,6 +31,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from mocap_cli import interrupt
 from mocap_cli.errors import ArgumentParser
 
 DEFAULT_FORMATS = ("bvh", "trc", "gltf", "c3d")
@@ -354,6 +355,7 @@ def run_detect(a, inputs: Inputs, out: Path, people, calibration: Path) -> dict:
     if not detector_available():
         raise FileNotFoundError("the detector needs mediapipe==0.10.14, which is not installed: run "
                                 "bash scripts/setup_env.sh (or see requirements-detect.txt)")
+    interrupt.check()           # a Ctrl-C during the detector's import (recorded, not raised there)
     plan = detection_plan(a, inputs, out, people, calibration, force=False)
     if plan is None:            # views detected with other settings before: this stage redoes them
         plan = detection_plan(a, inputs, out, people, calibration, force=True)
@@ -497,6 +499,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             changed = plan.changed_settings(record, stage) if stage.name in record["stages"] else []
             why = f" (changed: {', '.join(changed)})" if changed else ""
+            interrupt.check()
             _say(f"[{stage.name}] start{why}")
             record = plan.start_stage(out, record, stages, i)
             t, cpu = time.perf_counter(), time.process_time()
