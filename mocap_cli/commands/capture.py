@@ -391,8 +391,12 @@ def run_track(overrides: list[str], tracker: str) -> None:
 
 
 def run_export(out: Path, formats: list[str]) -> list[str]:
+    """Every format into ``out/export``: ``motion.<ext>``. Several people: where the export
+    writes several people (``mocap.run_folder.export.export_files``), a BVH per person
+    (``motion_p<id>.bvh``) and one TRC / C3D / GLB with everyone; else one file per person and
+    format (``person<id>.<ext>``)."""
     from mocap.export import FORMATS
-    from mocap.run_folder.export import export_run
+    from mocap.run_folder import export as exporting
 
     run = out / "track"
     metrics = json.loads((run / "metrics.json").read_text())
@@ -402,18 +406,17 @@ def run_export(out: Path, formats: list[str]) -> list[str]:
         if old.is_file():
             old.unlink()
     people = metrics.get("people")
-    written = []
+    export_files = getattr(exporting, "export_files", None)
+    written: list[Path] = []
     for fmt in formats:
-        if isinstance(people, list):
-            for pid in people:
-                path = folder / f"person{pid}{FORMATS[fmt]}"
-                export_run(run, fmt, path, overwrite=True, person=int(pid))
-                written.append(str(path.relative_to(out)))
+        if export_files is not None:
+            written += export_files(run, fmt, folder / f"motion{FORMATS[fmt]}", overwrite=True)
+        elif isinstance(people, list):
+            written += [exporting.export_run(run, fmt, folder / f"person{pid}{FORMATS[fmt]}", overwrite=True,
+                                             person=int(pid)) for pid in people]
         else:
-            path = folder / f"motion{FORMATS[fmt]}"
-            export_run(run, fmt, path, overwrite=True)
-            written.append(str(path.relative_to(out)))
-    return written
+            written.append(exporting.export_run(run, fmt, folder / f"motion{FORMATS[fmt]}", overwrite=True))
+    return [str(Path(p).relative_to(out)) for p in written]
 
 
 def capture_summary(out: Path, record: dict) -> dict:
