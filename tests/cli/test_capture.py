@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import os
 from pathlib import Path
 
 import cv2
@@ -17,7 +18,8 @@ from mocap.run_folder import capture as plan
 from mocap_cli.main import main as mocap
 
 REPO = Path(__file__).resolve().parents[2]
-CANDIDATES = [REPO.parent / "shared" / "data" / "pose2sim-demo", REPO / "../shared/data/pose2sim-demo"]
+CANDIDATES = [Path(os.environ.get("MOCAP_SHARED_DATA", REPO.parent / "shared" / "data")) / "pose2sim-demo",
+              REPO / "../shared/data/pose2sim-demo"]
 DEMO = next((p.resolve() for p in CANDIDATES if (p / "videos").is_dir()), None)
 CAMERAS = ("cam_01", "cam_02", "cam_03", "cam_04")
 
@@ -233,7 +235,6 @@ def test_help_and_a_bad_flag_import_no_numeric_stack():
 
 @pytest.mark.skipif(DEMO is None, reason="Pose2Sim demo not present")
 def test_ctrl_c_during_detection_leaves_no_stage_record(tmp_path):
-    import os
     import signal
     import subprocess
     import sys
