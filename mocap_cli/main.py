@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "export": ("export", "export a run's motion to BVH, TRC, glTF (GLB) or C3D"),
     "ablate": ("ablate", "collect a sweep's metrics into ablation.md, ablation.csv and ablation.png"),
     "make-dataset": ("make_dataset", "render a synthetic multi-view sequence with ground truth (Hydra)"),
+    "capture": ("capture", "videos -> motion in one command: detect, (calibrate), track, export; resumable"),
     "detect": ("detect", "calibrated videos -> 2D keypoints and person masks: a Pose2Sim-style folder"),
     "segment": ("segment", "segment a video recording into silhouettes: a sequence folder (Hydra)"),
     "video-check": ("video_check", "track a video and check it against its keypoints and masks (Hydra)"),
