@@ -67,7 +67,7 @@ def main() -> None:
             prof.enable()
             track(seq, body, args.seed)
             prof.disable()
-            pstats.Stats(prof).sort_stats("cumulative").print_stats(args.profile)
+            pstats.Stats(prof).sort_stats(os.environ.get("SORT", "cumulative")).print_stats(args.profile)
             return
         seconds, cpu, live, born = track(seq, body, args.seed)
     s, c, n, b = np.array(seconds), np.array(cpu), np.array(live), np.array(born)

@@ -19,7 +19,11 @@ Each frame (:meth:`PeopleTracker.step`):
    crossings); a track with no skeleton coasts on its prediction (short occlusions). A track
    coming back after missed frames, or assigned skeletons in fewer views than the frame
    before, takes them only when they triangulate within ``options.radius`` m of its
-   prediction (a newcomer where someone just left is not taken for them).
+   prediction (a newcomer where someone just left is not taken for them), and coming back
+   only in ``min_views`` views or more. In a track's own views, a skeleton that disagrees with
+   the others (its median skeleton epipolar distance to them above ``options.consistency``
+   times the frame's reference, the median over every track's pairs of views) is not taken
+   (a false skeleton, or the crossing partner's).
 2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
    frames it coasted after its last skeleton are dropped from its estimates. A track assigned
    skeletons in fewer than ``min_views`` views (but some) for more than
@@ -31,10 +35,11 @@ Each frame (:meth:`PeopleTracker.step`):
    ``options.consistency``: the views must agree about as well as a tracked person's do, not
    by the chance agreement of false skeletons); each such person, triangulated, is a
    candidate unless it lies within ``options.radius`` m of a live track (its median keypoint
-   against the track's median landmark). A candidate seen in ``options.confirm_frames``
-   consecutive frames, each within ``radius`` of the frame before, is confirmed: a new track
-   (the next id) initialised by the marker tracker's own start-up on that frame's detections
-   of the person.
+   against the track's median landmark; tracks coasting for more than ``confirm_frames``
+   aside). A candidate seen in
+   ``options.confirm_frames`` consecutive frames, each within ``radius`` of the frame before,
+   is confirmed: a new track (the next id) initialised by the marker tracker's own start-up
+   on that frame's detections of the person.
 
 Ids are never reused. ``births`` and ``deaths`` record, per frame, the ids born and ended.
 """
@@ -50,7 +55,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from mocap.data.sequence import Detections
-from mocap.energy.epipolar import skeleton_epipolar_distance
+from mocap.energy.epipolar import symmetric_epipolar_distance
 from mocap.energy.markers import arrange_detections, pinhole_project
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks, Uncached
@@ -98,6 +103,18 @@ def _only(det: Detections, keep: np.ndarray) -> Detections:
                       det.confidence[keep], None if det.person is None else det.person[keep])
 
 
+def masked_median(d: np.ndarray, ok: np.ndarray, min_count: int = 1, missing: float = np.inf) -> np.ndarray:
+    """Median of d (..., N) over its entries where ok (..., N) (the values of ``np.median`` on
+    them), ``missing`` where fewer than ``min_count``: (...)."""
+    n = ok.sum(axis=-1)
+    srt = np.sort(np.where(ok, d, np.inf), axis=-1)
+    hi = np.take_along_axis(srt, np.minimum(n // 2, srt.shape[-1] - 1)[..., None], -1)[..., 0]
+    lo = np.take_along_axis(srt, np.maximum(n // 2, 1)[..., None] - 1, -1)[..., 0]
+    with np.errstate(invalid="ignore"):
+        med = np.where(n % 2 == 1, hi, (lo + hi) / 2)
+    return np.where(n >= max(min_count, 1), med, missing)
+
+
 def skeleton_costs(xy: np.ndarray, valid: np.ndarray, u: np.ndarray, front: np.ndarray,
                    min_points: int = 3, missing: float = 1e9) -> np.ndarray:
     """(T, S) median pixel distance between each of S skeletons xy (S, L, 2) (valid (S, L))
@@ -105,15 +122,7 @@ def skeleton_costs(xy: np.ndarray, valid: np.ndarray, u: np.ndarray, front: np.n
     valid and in front of the camera; ``missing`` where fewer than ``min_points``. The values
     of ``np.median`` on each pair's distances, all pairs at once."""
     d = np.linalg.norm(xy[None] - u[:, None], axis=-1)                      # (T, S, L)
-    ok = valid[None] & front[:, None]
-    n = ok.sum(axis=-1)
-    srt = np.sort(np.where(ok, d, np.inf), axis=-1)
-    half = np.maximum(n // 2, 1)[..., None]
-    hi = np.take_along_axis(srt, np.minimum(n // 2, srt.shape[-1] - 1)[..., None], -1)[..., 0]
-    lo = np.take_along_axis(srt, half - 1, -1)[..., 0]
-    with np.errstate(invalid="ignore"):
-        med = np.where(n % 2 == 1, hi, (lo + hi) / 2)
-    return np.where(n >= min_points, med, missing)
+    return masked_median(d, valid[None] & front[:, None], min_points, missing)
 
 
 class PeopleTracker:
@@ -259,7 +268,7 @@ class PeopleTracker:
         reference: the median of these distances over every track's pairs of views."""
         F = self._probe_tracker().F
         C = len(sk.xy)
-        d = [np.full((C, C), np.nan) for _ in taken]
+        d = np.full((len(taken), C, C), np.nan)
         pooled = []
         views = [dict(tk) for tk in taken]
         for a, b in itertools.combinations(range(C), 2):
@@ -267,24 +276,20 @@ class PeopleTracker:
             if not have:
                 continue
             ia, ja, jb = (np.array(v) for v in zip(*have, strict=True))
-            D = np.diagonal(skeleton_epipolar_distance(F[a, b], sk.xy[a][ja], sk.valid[a][ja], sk.xy[b][jb],
-                                                       sk.valid[b][jb]))
-            for i, v in zip(ia, D, strict=True):
-                d[i][a, b] = d[i][b, a] = v
-            pooled += [v for v in D if np.isfinite(v)]
-        if pooled:
+            # skeleton_epipolar_distance of each track's pair (its min_common = 4 landmarks)
+            D = masked_median(symmetric_epipolar_distance(F[a, b], sk.xy[a][ja], sk.xy[b][jb]),
+                              sk.valid[a][ja] & sk.valid[b][jb], 4)
+            d[ia, a, b] = d[ia, b, a] = D
+            pooled.append(D[np.isfinite(D)])
+        pooled = np.concatenate(pooled) if pooled else np.zeros(0)
+        if len(pooled):
             self._reference = float(np.median(pooled))
         if self._reference is None:
             return taken
+        med = masked_median(d, np.isfinite(d), 1, 0.0)                          # (T, C)
         limit = self.options.consistency * self._reference
-        out = []
-        for tk, di in zip(taken, d, strict=True):
-            if len(tk) >= 3:
-                with np.errstate(all="ignore"):
-                    med = {c: np.nanmedian(np.where(np.isfinite(di[c]), di[c], np.nan)) for c, _ in tk}
-                tk = [(c, j) for c, j in tk if not med[c] > limit]
-            out.append(tk)
-        return out
+        return [[(c, j) for c, j in tk if not med[i, c] > limit] if len(tk) >= 3 else tk
+                for i, tk in enumerate(taken)]
 
     def step(self, frame: Frame) -> dict[int, Estimate]:
         """{track id: estimate} for the tracks live in this frame (a track born here: its
@@ -304,7 +309,11 @@ class PeopleTracker:
         stepping: list[tuple[Track, Frame]] = []
         for t, mine, tk in zip(live, rows, taken, strict=True):
             # back after missed frames, or seen in fewer views than before: someone else may be
-            # standing where the track coasts (a newcomer next to where a person left)
+            # standing where the track coasts (a newcomer next to where a person left); back
+            # after coasting longer than confirm_frames only in min_views views, as a newcomer
+            if mine.any() and t.missed > self.options.confirm_frames and len(tk) < self.min_views:
+                mine = np.zeros_like(mine)
+                tk = []
             if mine.any() and (t.missed or len(tk) < t.views) and not self._same_person(t, _only(det, mine)):
                 mine = np.zeros_like(mine)
                 tk = []
@@ -418,7 +427,10 @@ class PeopleTracker:
         if o.consistency and people:
             if self._reference is not None:
                 people = [(p, d) for p, d in people if d <= o.consistency * self._reference]
-        centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks if not t.ended]
+        # a live track blocks a candidate next to it (a skeleton of its person it did not take),
+        # unless it has coasted longer than confirm_frames (a newcomer where someone left)
+        centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks
+                   if not t.ended and t.missed <= o.confirm_frames]
         seen: list[Candidate] = []
         for person, _ in people:
             pdet = person_detections(det, free, person)
