@@ -37,6 +37,8 @@ from mocap.trackers.apf import (
 from mocap.trackers.tracker_settings import APFSettings
 
 if HAVE_NUMBA:
+    from mocap.body.root_motion import _root_spread_nb
+    from mocap.trackers.apf import _column_std_nb
 
     @njit(cache=True)
     def _people_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest, R, t, Kc, obs_xy, valid,
@@ -160,6 +162,27 @@ if HAVE_NUMBA:
                 out[r, j] = i
 
 
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _spreads_nb(x, roots, out):
+        """out[n] = :func:`mocap.trackers.apf.particle_spread` (x[n], roots[n]) for x (T, P, D)."""
+        root = np.empty(6)
+        for n in range(x.shape[0]):
+            _column_std_nb(x[n], out[n])
+            _root_spread_nb(np.ascontiguousarray(x[n, :, :6]), roots[n], root)
+            out[n, :6] = root
+
+
+def _spreads(x: np.ndarray, root_points: Sequence[np.ndarray]) -> np.ndarray:
+    """(T, D) :func:`mocap.trackers.apf.particle_spread` of each person's particles x (T, P, D)."""
+    if HAVE_NUMBA and x.dtype == np.float64 and x.shape[2] >= 6:
+        out = np.empty(x.shape[0::2])
+        _spreads_nb(np.ascontiguousarray(x), np.ascontiguousarray(np.stack(root_points), np.float64), out)
+        return out
+    return np.stack([particle_spread(x[n], root_points[n]) for n in range(len(x))])
+
+
 def _systematic(weights: np.ndarray, r: np.ndarray) -> np.ndarray:
     """:func:`mocap.trackers.apf.systematic_resample` of rows of weights (R, P) with their
     uniforms r (R,): indices (R, P)."""
@@ -220,12 +243,13 @@ def anneal_people(energy: PeopleEnergy, centers: np.ndarray, init_std: np.ndarra
         costs = energy.landmark_costs(x)                                         # (T, P, L)
         E = costs.sum(axis=2)
         W, betas = _weights(costs, groups, settings.survival)
+        spreads = _spreads(x, root_points)
         for n in range(T):
             k = int(np.argmin(E[n]))
             if E[n, k] < best_e[n]:
                 best_x[n], best_e[n] = x[n, k], float(E[n, k])
             w = W[n, 0]
-            spread = particle_spread(x[n], root_points[n])
+            spread = spreads[n]
             layers[n].append(LayerTrace(
                 energy_min=float(E[n].min()), energy_mean=float(E[n] @ w), beta=float(betas[n, 0]),
                 survival=survival_rate(w), ess=float(1.0 / (w**2).sum()), spread=float(spread.mean())))
@@ -246,7 +270,7 @@ def anneal_people(energy: PeopleEnergy, centers: np.ndarray, init_std: np.ndarra
             new[:, :, grp.dofs] = x[rows[:, :, None], pick[:, :, None], grp.dofs[None, None]]
         x = new
         scale = settings.shrink ** (m + 1)
-        spread = np.stack([particle_spread(x[n], root_points[n]) for n in range(T)])
+        spread = _spreads(x, root_points)
         std = np.maximum(settings.diffusion * spread, settings.min_std_fraction * std0) * scale
         x = _propagate(x, std, limits, rngs, root_points)
     out = []
