@@ -19,11 +19,12 @@ Each frame (:meth:`PeopleTracker.step`):
    crossings); a track with no skeleton coasts on its prediction (short occlusions). A track
    coming back after missed frames, or assigned skeletons in fewer views than the frame
    before, takes them only when they triangulate within ``options.radius`` m of its
-   prediction (a newcomer where someone just left is not taken for them), and coming back
-   only in ``min_views`` views or more. In a track's own views, a skeleton that disagrees with
-   the others (its median skeleton epipolar distance to them above ``options.consistency``
-   times the frame's reference, the median over every track's pairs of views) is not taken
-   (a false skeleton, or the crossing partner's).
+   prediction (a newcomer where someone just left is not taken for them), and after coasting
+   more than ``options.confirm_frames`` frames only in ``min_views`` views or more. In a
+   track's own views, a skeleton that disagrees with the others (its median skeleton
+   epipolar distance to them above ``options.consistency`` times the frame's reference, the
+   median over every track's pairs of views) is not taken (a false skeleton, or the crossing
+   partner's).
 2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
    frames it coasted after its last skeleton are dropped from its estimates. A track assigned
    skeletons in fewer than ``min_views`` views (but some) for more than
@@ -36,10 +37,9 @@ Each frame (:meth:`PeopleTracker.step`):
    by the chance agreement of false skeletons); each such person, triangulated, is a
    candidate unless it lies within ``options.radius`` m of a live track (its median keypoint
    against the track's median landmark; tracks coasting for more than ``confirm_frames``
-   aside). A candidate seen in
-   ``options.confirm_frames`` consecutive frames, each within ``radius`` of the frame before,
-   is confirmed: a new track (the next id) initialised by the marker tracker's own start-up
-   on that frame's detections of the person.
+   aside). A candidate seen in ``options.confirm_frames`` consecutive frames, each within
+   ``radius`` of the frame before, is confirmed: a new track (the next id) initialised by the
+   marker tracker's own start-up on that frame's detections of the person.
 
 Ids are never reused. ``births`` and ``deaths`` record, per frame, the ids born and ended.
 """
