@@ -135,15 +135,77 @@ def crowd_scene(body: BodyModel, frames: int = 80, seed: int = 0, gap: float = 0
     return Crowd(chis, alphas, present, (0, 1), F // 2, {3: enter3, 4: enter4}, {2: leave})
 
 
+def false_skeletons(body: BodyModel, rig: Rig, frames: int, count: int, labels: Sequence[str],
+                    seed: int = 0, noise_px: float = 1.0, confidence: float = 0.8,
+                    max_views: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """A detector's false people: ``count`` whole skeletons, each seen in one to ``max_views``
+    views only (drawn per false person) over a stretch of the frames (a quarter to all of them),
+    plausible and moving: the keypoints of a person of random shape walking a straight line
+    through the volume, projected into those views alone (``noise_px`` pixel noise). Returns
+    (rows (M, 7): frame, view, label, x, y, confidence, false person index, the true keypoints
+    (count, frames, L, 3) world metres, NaN where absent). Seeded by ``seed`` with its own
+    stream (:func:`crowd_sequence`'s real people are drawn as without false ones)."""
+    rng = np.random.default_rng([seed, 0xFA15E])
+    lms = make_landmark_set(body, list(labels))
+    sizes = np.asarray(rig.sizes, np.float64)
+    rows = []
+    pts_all = np.full((count, frames, len(lms), 3), np.nan)
+    for n in range(count):
+        views = rng.choice(len(rig), size=int(rng.integers(1, max_views + 1)), replace=False)
+        length = int(rng.integers(max(frames // 4, 2), frames + 1))
+        first = int(rng.integers(0, frames - length + 1))
+        start, heading = rng.uniform(-1.5, 1.5, 2), rng.uniform(-np.pi, np.pi)
+        end = np.clip(start + 1.0 * np.array([np.cos(heading), np.sin(heading)]), -1.8, 1.8)
+        chi = straight_walk(body, frames, start, end, heading, seed=int(rng.integers(1 << 30)))
+        alpha = rng.normal(0, 0.8, body.num_shape)
+        pts = lms.positions(body.shaped(alpha), chi).astype(np.float64)
+        pts_all[n, first:first + length] = pts[first:first + length]
+        for f in range(first, first + length):
+            for c in sorted(int(v) for v in views):
+                px, depth = project(rig[c], pts[f], return_depth=True)
+                px = px + rng.normal(0.0, noise_px, px.shape)
+                ok = (depth > 0.1) & np.all((px >= 0) & (px < sizes[c]), axis=1)
+                for k in np.flatnonzero(ok):
+                    rows.append((f, c, k, px[k, 0], px[k, 1], confidence, n))
+    return np.array(rows, np.float64).reshape(-1, 7), pts_all
+
+
+def with_false_skeletons(det: Detections, rows: np.ndarray, seed: int = 0) -> Detections:
+    """``det`` with the false skeletons ``rows`` (:func:`false_skeletons`) added, sorted by
+    frame and view, the detector's person index of each (frame, view) shuffled again over the
+    true and the false skeletons together (seeded by ``seed``)."""
+    rng = np.random.default_rng([seed, 0x5EED])
+    frame = np.concatenate([det.frame, rows[:, 0].astype(np.int64)])
+    view = np.concatenate([det.view, rows[:, 1].astype(np.int64)])
+    label = np.concatenate([det.label, rows[:, 2].astype(np.int64)])
+    xy = np.concatenate([det.xy, rows[:, 3:5]])
+    conf = np.concatenate([det.confidence, rows[:, 5]])
+    real = np.asarray(det.person, np.int64)
+    tag = np.concatenate([real, 1_000_000 + rows[:, 6].astype(np.int64)])   # false ones apart
+    order = np.lexsort((view, frame))
+    frame, view, label, xy = frame[order], view[order], label[order], xy[order]
+    conf, tag = conf[order], tag[order]
+    person = np.empty_like(tag)
+    keys = frame * (int(view.max(initial=0)) + 1) + view
+    for key in np.unique(keys):
+        sel = np.flatnonzero(keys == key)
+        who, inverse = np.unique(tag[sel], return_inverse=True)
+        person[sel] = rng.permutation(len(who))[inverse]
+    return Detections(det.labels, frame, view, label, xy, conf, person)
+
+
 def crowd_sequence(*, body: BodyModel, frames: int = 80, seed: int = 0, noise_px: float = 1.0,
                    gap: float = 0.3, cameras: str | Mapping | None = None, layout: str = "BODY_25B",
-                   name: str = "crowd") -> Sequence_:
+                   false_people: int = 0, false_views: int = 2, name: str = "crowd") -> Sequence_:
     """The synthetic crowd (:func:`crowd_scene`) as a keypoint detector sees it: ``layout``'s
     keypoints (:data:`mocap.body.skeletons.LAYOUTS`) grouped per person, ``noise_px`` pixel
     noise, in ``cameras`` (None: :data:`CROWD_RIG`, 5 views). The sequence has no single-person
     ground truth; its several-people truth (mocap's joints per person, NaN where absent) is
     ``seq.meta["people_truth"]`` (:class:`mocap.data.people_truth.PeopleTruth`), with the
-    scene's story under ``seq.meta["crowd"]``."""
+    scene's story under ``seq.meta["crowd"]``. ``false_people``: that many false skeletons
+    (:func:`false_skeletons`: whole plausible moving people a detector sees in one to
+    ``false_views`` views only, seeded by ``seed``; 0, the default, adds none and leaves the
+    detections as they were), listed in ``seq.meta["crowd"]["false_people"]``."""
     from mocap.body.skeletons import LAYOUTS
     from mocap.cameras import rig_from_config
     from mocap.data.people_truth import KEY, PeopleTruth
@@ -152,15 +214,25 @@ def crowd_sequence(*, body: BodyModel, frames: int = 80, seed: int = 0, noise_px
         raise ValueError(f"data.layout = {layout!r} is not a keypoint layout (allowed: {', '.join(LAYOUTS)})")
     if noise_px < 0:
         raise ValueError(f"data.noise_px = {noise_px!r} is out of range (>= 0 px)")
+    if false_people < 0:
+        raise ValueError(f"data.false_people = {false_people!r} is out of range (an integer >= 0)")
+    if false_views < 1:
+        raise ValueError(f"data.false_views = {false_views!r} is out of range (an integer >= 1)")
     rig = rig_from_config(CROWD_RIG if cameras is None else cameras)
     crowd = crowd_scene(body, frames, seed, gap)
     labels = [n for n in LAYOUTS[layout] if n is not None]
     det, _ = crowd_detections(body, rig, crowd.chis, crowd.alphas, labels, noise_px=noise_px, seed=seed,
                               present=crowd.present)
+    if false_people:
+        rows, _ = false_skeletons(body, rig, frames, false_people, labels, seed=seed, noise_px=noise_px,
+                                  max_views=false_views)
+        det = with_false_skeletons(det, rows, seed)
     joints = np.stack([body.shaped(a).pose(c).joints for c, a in zip(crowd.chis, crowd.alphas, strict=True)])
     joints = np.where(crowd.present[..., None, None], joints, np.nan).transpose(1, 0, 2, 3)     # (F, N, J, 3)
     story = {"crossing": list(crowd.crossing), "crossing_frame": crowd.crossing_frame,
              "entering": {str(k): v for k, v in crowd.entering.items()},
              "leaving": {str(k): v for k, v in crowd.leaving.items()}}
+    if false_people:
+        story["false_people"] = false_people
     return Sequence_(name=name, rig=rig, fps=25.0, detections=det,
                      meta={KEY: PeopleTruth(joints, body.joint_names), "crowd": story})

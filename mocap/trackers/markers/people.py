@@ -3,7 +3,8 @@ per person, identities kept across frames, people entering and leaving picked up
 
 Start-up (:meth:`PeopleTracker.start`): the people of the first frame are associated across
 views by whole-skeleton epipolar consistency (:mod:`mocap.trackers.markers.associate`); each
-person seen in ``options.min_views`` or more views gets a track (id 0, 1, ... in the
+person seen in ``min_views`` or more views (``options.min_views``; by default 3 where the
+rig has 4 or more cameras, else 2) gets a track (id 0, 1, ... in the
 association's order: most views first), initialised by the tracker's own start-up on that
 person's detections. ``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id,
 or a point (x, y, z) world metres (the person whose triangulated keypoints lie nearest).
@@ -18,21 +19,34 @@ Each frame (:meth:`PeopleTracker.step`):
    crossings); a track with no skeleton coasts on its prediction (short occlusions). A track
    coming back after missed frames, or assigned skeletons in fewer views than the frame
    before, takes them only when they triangulate within ``options.radius`` m of its
-   prediction (a newcomer where someone just left is not taken for them).
+   prediction (a newcomer where someone just left is not taken for them), and after coasting
+   more than ``options.confirm_frames`` frames only in ``min_views`` views or more. In a
+   track's own views, a skeleton that disagrees with the others (its median skeleton
+   epipolar distance to them above ``options.consistency`` times the frame's reference, the
+   median over every track's pairs of views) is not taken (a false skeleton, or the crossing
+   partner's).
 2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
-   frames it coasted after its last skeleton are dropped from its estimates.
+   frames it coasted after its last skeleton are dropped from its estimates. A track assigned
+   skeletons in fewer than ``min_views`` views (but some) for more than
+   ``options.max_under_viewed`` consecutive frames ends too (a ghost living on a detector's
+   false skeletons seen by one or two cameras), its frames after the last one seen in
+   ``min_views`` views dropped.
 3. Births: the skeletons no track took are associated across views as at the start-up
-   (``options.min_views``); each such person, triangulated, is a candidate unless it lies
-   within ``options.radius`` m of a live track (its median keypoint against the track's
-   median landmark). A candidate seen in ``options.confirm_frames`` consecutive frames, each
-   within ``radius`` of the frame before, is confirmed: a new track (the next id) initialised
-   by the marker tracker's own start-up on that frame's detections of the person.
+   (``min_views``: a false skeleton seen by one or two cameras is no newcomer; and
+   ``options.consistency``: the views must agree about as well as a tracked person's do, not
+   by the chance agreement of false skeletons); each such person, triangulated, is a
+   candidate unless it lies within ``options.radius`` m of a live track (its median keypoint
+   against the track's median landmark; tracks coasting for more than ``confirm_frames``
+   aside). A candidate seen in ``options.confirm_frames`` consecutive frames, each within
+   ``radius`` of the frame before, is confirmed: a new track (the next id) initialised by the
+   marker tracker's own start-up on that frame's detections of the person.
 
 Ids are never reused. ``births`` and ``deaths`` record, per frame, the ids born and ended.
 """
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -41,11 +55,13 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from mocap.data.sequence import Detections
+from mocap.energy.epipolar import symmetric_epipolar_distance
 from mocap.energy.markers import arrange_detections, pinhole_project
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks, Uncached
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.markers.associate import Skeletons, associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.batch import PeopleEnergy, anneal_people
 from mocap.trackers.markers.settings import PeopleOptions
 from mocap.trackers.markers.startup import triangulate_candidates
 from mocap.trackers.markers.tracker import MarkerAPFTracker
@@ -54,9 +70,11 @@ from mocap.trackers.markers.tracker import MarkerAPFTracker
 @dataclass
 class Track:
     """One person: ``born`` the frame of its first estimate, ``last_seen`` the last frame with a
-    skeleton assigned, ``views`` the views it was last assigned skeletons in, ``ended`` once it
-    has been missed for more than ``max_missed`` frames; ``estimates``: {frame: estimate} (no
-    entries after ``last_seen`` once ended)."""
+    skeleton assigned, ``views`` the views it was last assigned skeletons in, ``last_well`` the
+    last frame it was assigned skeletons in ``min_views`` views or more, ``under`` the frames
+    since then with skeletons in fewer views, ``ended`` once it has been missed for more than
+    ``max_missed`` frames or under-viewed for more than ``max_under_viewed``; ``estimates``:
+    {frame: estimate} (no entries after ``last_seen``, resp. ``last_well``, once ended)."""
 
     id: int
     tracker: MarkerAPFTracker
@@ -64,6 +82,8 @@ class Track:
     last_seen: int = 0
     missed: int = 0
     views: int = 0
+    last_well: int = 0
+    under: int = 0
     ended: bool = False
     estimates: dict[int, Estimate] = field(default_factory=dict)
 
@@ -81,6 +101,28 @@ class Candidate:
 def _only(det: Detections, keep: np.ndarray) -> Detections:
     return Detections(det.labels, det.frame[keep], det.view[keep], det.label[keep], det.xy[keep],
                       det.confidence[keep], None if det.person is None else det.person[keep])
+
+
+def masked_median(d: np.ndarray, ok: np.ndarray, min_count: int = 1, missing: float = np.inf) -> np.ndarray:
+    """Median of d (..., N) over its entries where ok (..., N) (the values of ``np.median`` on
+    them), ``missing`` where fewer than ``min_count``: (...)."""
+    n = ok.sum(axis=-1)
+    srt = np.sort(np.where(ok, d, np.inf), axis=-1)
+    hi = np.take_along_axis(srt, np.minimum(n // 2, srt.shape[-1] - 1)[..., None], -1)[..., 0]
+    lo = np.take_along_axis(srt, np.maximum(n // 2, 1)[..., None] - 1, -1)[..., 0]
+    with np.errstate(invalid="ignore"):
+        med = np.where(n % 2 == 1, hi, (lo + hi) / 2)
+    return np.where(n >= max(min_count, 1), med, missing)
+
+
+def skeleton_costs(xy: np.ndarray, valid: np.ndarray, u: np.ndarray, front: np.ndarray,
+                   min_points: int = 3, missing: float = 1e9) -> np.ndarray:
+    """(T, S) median pixel distance between each of S skeletons xy (S, L, 2) (valid (S, L))
+    and each of T tracks' projected landmarks u (T, L, 2) (front (T, L)), over the keypoints
+    valid and in front of the camera; ``missing`` where fewer than ``min_points``. The values
+    of ``np.median`` on each pair's distances, all pairs at once."""
+    d = np.linalg.norm(xy[None] - u[:, None], axis=-1)                      # (T, S, L)
+    return masked_median(d, valid[None] & front[:, None], min_points, missing)
 
 
 class PeopleTracker:
@@ -105,6 +147,7 @@ class PeopleTracker:
         self.deaths: dict[int, list[int]] = {}
         self.start_up_flags: list[str] = []
         self._probe: MarkerAPFTracker | None = None
+        self._reference: float | None = None        # px: how well a tracked person's views agree
 
     # -- set-up ------------------------------------------------------------------------
     def check_sequence(self, seq) -> None:
@@ -130,7 +173,10 @@ class PeopleTracker:
         sk = skeletons_of(det, probe.landmarks.names, probe.rig)
         if sk is None:
             raise ValueError("several people need detections grouped into skeletons (Detections.person)")
-        people = associate_people(sk, probe.F, self._association_px(), min_views=self.options.min_views)
+        people = associate_people(sk, probe.F, self._association_px(), min_views=self.min_views)
+        if self.options.consistency and people:
+            self._reference = float(np.median([d for _, d in people]))
+            people = [(p, d) for p, d in people if d <= self.options.consistency * self._reference]
         tracks = [self._new_track(n, frame.index, person_detections(det, sk, person))
                   for n, (person, _) in enumerate(people)]
         self.tracks = self._chosen(tracks)
@@ -138,6 +184,11 @@ class PeopleTracker:
         self.deaths = {}
         self.candidates = []
         return self.tracks
+
+    @property
+    def min_views(self) -> int:
+        """Views a person must be associated in (``options.min_views``; auto: 3 with 4+ cameras)."""
+        return self.options.views_needed(len(self._probe_tracker().rig))
 
     def _association_px(self) -> float:
         probe = self._probe_tracker()
@@ -148,7 +199,7 @@ class PeopleTracker:
         chi, alpha = trk.initial_estimate(Frame(f, detections=det))
         trk.initialize(chi, alpha)
         self.start_up_flags += [f"person {track_id}: {flag}" for flag in trk.start_up_flags]
-        t = Track(track_id, trk, born=f, last_seen=f)
+        t = Track(track_id, trk, born=f, last_seen=f, last_well=f)
         t.estimates[f] = Estimate(chi=chi, alpha=np.asarray(alpha, np.float64),
                                   diagnostics=StepDiagnostics(initial=True))
         return t
@@ -197,19 +248,48 @@ class PeopleTracker:
             S = len(sk.xy[c])
             if not S:
                 continue
-            cost = np.full((len(live), S), 1e9)
-            for i in range(len(live)):
-                front = depth[i, :, c] > 0
-                for j in range(S):
-                    ok = sk.valid[c][j] & front
-                    if ok.sum() >= 3:
-                        cost[i, j] = np.median(np.linalg.norm(sk.xy[c][j][ok] - u[i, ok, c], axis=1))
+            cost = skeleton_costs(sk.xy[c], sk.valid[c], u[:, :, c], depth[:, :, c] > 0)
             rows, cols = linear_sum_assignment(cost)
             for i, j in zip(rows, cols, strict=True):
                 if cost[i, j] < gate:
-                    keep[i] |= (det.view == c) & (det.person == sk.ids[c][j])
                     taken[i].append((c, int(j)))
+        if self.options.consistency:
+            taken = self._consistent(sk, taken)
+        for i, tk in enumerate(taken):
+            for c, j in tk:
+                keep[i] |= (det.view == c) & (det.person == sk.ids[c][j])
         return keep, taken
+
+    def _consistent(self, sk: Skeletons, taken: list[list[tuple[int, int]]]) -> list[list[tuple[int, int]]]:
+        """Each track's skeletons without the views that disagree with its others: a view whose
+        median skeleton epipolar distance to the track's other views exceeds
+        ``options.consistency`` times the reference (a false skeleton, or the crossing
+        partner's, taken in that view) is dropped (tracks with 3 or more views). Updates the
+        reference: the median of these distances over every track's pairs of views."""
+        F = self._probe_tracker().F
+        C = len(sk.xy)
+        d = np.full((len(taken), C, C), np.nan)
+        pooled = []
+        views = [dict(tk) for tk in taken]
+        for a, b in itertools.combinations(range(C), 2):
+            have = [(i, v[a], v[b]) for i, v in enumerate(views) if a in v and b in v]
+            if not have:
+                continue
+            ia, ja, jb = (np.array(v) for v in zip(*have, strict=True))
+            # skeleton_epipolar_distance of each track's pair (its min_common = 4 landmarks)
+            D = masked_median(symmetric_epipolar_distance(F[a, b], sk.xy[a][ja], sk.xy[b][jb]),
+                              sk.valid[a][ja] & sk.valid[b][jb], 4)
+            d[ia, a, b] = d[ia, b, a] = D
+            pooled.append(D[np.isfinite(D)])
+        pooled = np.concatenate(pooled) if pooled else np.zeros(0)
+        if len(pooled):
+            self._reference = float(np.median(pooled))
+        if self._reference is None:
+            return taken
+        med = masked_median(d, np.isfinite(d), 1, 0.0)                          # (T, C)
+        limit = self.options.consistency * self._reference
+        return [[(c, j) for c, j in tk if not med[i, c] > limit] if len(tk) >= 3 else tk
+                for i, tk in enumerate(taken)]
 
     def step(self, frame: Frame) -> dict[int, Estimate]:
         """{track id: estimate} for the tracks live in this frame (a track born here: its
@@ -226,14 +306,23 @@ class PeopleTracker:
             rows, taken = [np.zeros(0 if det is None else len(det), bool) for _ in live], [[] for _ in live]
         used: list[set[int]] = [set() for _ in (sk.xy if sk is not None else ())]
         out = {}
+        stepping: list[tuple[Track, Frame]] = []
         for t, mine, tk in zip(live, rows, taken, strict=True):
             # back after missed frames, or seen in fewer views than before: someone else may be
-            # standing where the track coasts (a newcomer next to where a person left)
+            # standing where the track coasts (a newcomer next to where a person left); back
+            # after coasting longer than confirm_frames only in min_views views, as a newcomer
+            if mine.any() and t.missed > self.options.confirm_frames and len(tk) < self.min_views:
+                mine = np.zeros_like(mine)
+                tk = []
             if mine.any() and (t.missed or len(tk) < t.views) and not self._same_person(t, _only(det, mine)):
                 mine = np.zeros_like(mine)
                 tk = []
             if tk:
                 t.views = len(tk)
+                if len(tk) >= self.min_views:
+                    t.last_well, t.under = f, 0
+                else:
+                    t.under += 1
             for c, j in tk:
                 used[c].add(j)
             if mine.any():
@@ -246,13 +335,67 @@ class PeopleTracker:
                         del t.estimates[g]
                     self.deaths.setdefault(f, []).append(t.id)
                     continue
-            est = t.tracker.step(Frame(f, detections=_only(det, mine)))
+            if t.under > self.options.max_under_viewed:      # a ghost on false skeletons, or gone
+                t.ended = True
+                for g in [g for g in t.estimates if g > t.last_well]:
+                    del t.estimates[g]
+                self.deaths.setdefault(f, []).append(t.id)
+                continue
+            stepping.append((t, Frame(f, detections=_only(det, mine))))
+        for t, est in zip([t for t, _ in stepping], self._step_tracks(stepping), strict=True):
             t.estimates[f] = est
             out[t.id] = est
         if self.options.births and sk is not None:
             for t in self._births(frame, sk, used):
                 out[t.id] = t.estimates[f]
         return out
+
+    def _step_tracks(self, stepping: list[tuple[Track, Frame]]) -> list[Estimate]:
+        """Each track's step on its frame (its own detections): the annealed searches of all of
+        them run together (:func:`mocap.trackers.markers.batch.anneal_people`: one energy call
+        per layer for every person's particles, each person's result as its own step gives);
+        one track alone, or trackers that cannot share a batch, step one by one."""
+        trackers = [t.tracker for t, _ in stepping]
+        if not self._batchable(trackers):
+            return [trk.step(frame) for trk, (_, frame) in zip(trackers, stepping, strict=True)]
+        t0 = time.perf_counter()
+        predicted = [trk.predict() for trk in trackers]
+        built = [trk.frame_energy(frame, p) for trk, (_, frame), p in zip(trackers, stepping, predicted,
+                                                                          strict=True)]
+        t1 = time.perf_counter()
+        first = trackers[0]
+        found = anneal_people(PeopleEnergy([e for e, _ in built]), np.stack(predicted), first.std0,
+                              first.body.limits, first.settings, [trk.rng for trk in trackers],
+                              np.stack([trk.history[-1] for trk in trackers]),
+                              [trk.shaped.rest_joints[0] for trk in trackers], first.groups)
+        chis = [trk.after_annealing(e, chi)
+                for trk, (e, _), (chi, _) in zip(trackers, built, found, strict=True)]
+        t2 = time.perf_counter()
+        share = {"observation": (t1 - t0) / len(trackers), "search": (t2 - t1) / len(trackers)}
+        out = []
+        for trk, (energy, context), chi, (_, trace) in zip(trackers, built, chis, found, strict=True):
+            trk.history = [*trk.history[-2:], chi]
+            out.append(Estimate(chi=chi, alpha=trk.shaped.alpha,
+                                diagnostics=trk.report(energy, context, chi, trace, dict(share))))
+        return out
+
+    @staticmethod
+    def _batchable(trackers: list[MarkerAPFTracker]) -> bool:
+        """Trackers whose searches can run as one batch: two or more, crossover groups, one body,
+        landmark set and search settings, no particles kept."""
+        if len(trackers) < 2:
+            return False
+        a = trackers[0]
+        if not a.groups or a.keep_particles or a.shaped is None:
+            return False
+        for b in trackers[1:]:
+            if (b.body is not a.body or b.settings != a.settings or b.keep_particles or b.shaped is None
+                    or b.landmarks.names != a.landmarks.names or not np.array_equal(b.std0, a.std0)
+                    or len(b.groups) != len(a.groups)
+                    or not all(np.array_equal(g.dofs, h.dofs) and np.array_equal(g.landmarks, h.landmarks)
+                               for g, h in zip(a.groups, b.groups, strict=True))):
+                return False
+        return True
 
     def _centre(self, det: Detections) -> np.ndarray | None:
         """(3,) median of one person's triangulated keypoints (None: fewer than 3 triangulated)."""
@@ -277,11 +420,17 @@ class PeopleTracker:
         free = Skeletons([x[r] for x, r in zip(sk.xy, rest, strict=True)],
                          [v[r] for v, r in zip(sk.valid, rest, strict=True)],
                          [i[r] for i, r in zip(sk.ids, rest, strict=True)])
-        if sum(len(x) > 0 for x in free.xy) < o.min_views:
+        if sum(len(x) > 0 for x in free.xy) < self.min_views:
             self.candidates = []
             return []
-        people = associate_people(free, probe.F, self._association_px(), min_views=o.min_views)
-        centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks if not t.ended]
+        people = associate_people(free, probe.F, self._association_px(), min_views=self.min_views)
+        if o.consistency and people:
+            if self._reference is not None:
+                people = [(p, d) for p, d in people if d <= o.consistency * self._reference]
+        # a live track blocks a candidate next to it (a skeleton of its person it did not take),
+        # unless it has coasted longer than confirm_frames (a newcomer where someone left)
+        centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks
+                   if not t.ended and t.missed <= o.confirm_frames]
         seen: list[Candidate] = []
         for person, _ in people:
             pdet = person_detections(det, free, person)

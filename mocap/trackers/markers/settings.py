@@ -133,25 +133,46 @@ class MarkerSettings(APFSettings):
 @dataclass(frozen=True)
 class PeopleOptions:
     """Several people (``marker_people``, :mod:`mocap.trackers.markers.people`): ``min_views``:
-    views a person must be associated in (start-up and newcomers); ``confirm_frames``: a
-    newcomer (skeletons no track took, consistent across ``min_views`` views) gets a track once
-    seen in this many consecutive frames, each time within ``radius`` m (its triangulated
-    keypoints' median) of where it was the frame before and farther than ``radius`` from every
-    live track; ``max_missed``: a track with no skeleton assigned in any view for more
-    frames than this ends (the person left; the frames it coasted after its last skeleton are
-    dropped); ``births``: False tracks only the people of the first frame."""
+    views a person must be associated in (start-up and newcomers; null: 3 where the rig has 4
+    or more cameras, else 2, :meth:`views_needed`: a false skeleton a detector sees in one or
+    two views never becomes a track); ``confirm_frames``: a newcomer (skeletons no track took,
+    consistent across ``min_views`` views) gets a track once seen in this many consecutive
+    frames, each time within ``radius`` m (its triangulated keypoints' median) of where it was
+    the frame before and farther than ``radius`` from every live track; ``max_missed``: a
+    track with no skeleton assigned in any view for more frames than this ends (the person
+    left; the frames it coasted after its last skeleton are dropped); ``max_under_viewed``: a
+    track assigned skeletons in fewer than ``min_views`` views for more consecutive frames than
+    this ends too (a ghost that took a false skeleton; the frames after its last frame seen in
+    ``min_views`` views are dropped); ``consistency``: a person is started (at the start-up or
+    as a newcomer) only when the mean pairwise epipolar distance of its skeletons across views
+    is at most this many times the frame's reference, the median of that distance over the
+    people already tracked (their assigned skeletons; at the start-up over the people
+    associated): a real person's views agree to the detector's noise, a chance agreement of
+    false skeletons several times more loosely (0: off); ``births``: False tracks only the
+    people of the first frame."""
 
-    min_views: int = 2
+    min_views: int | None = None
     confirm_frames: int = 3
     max_missed: int = 10
+    max_under_viewed: int = 10
     radius: float = 0.3
+    consistency: float = 3.0
     births: bool = True
 
     def __post_init__(self) -> None:
-        check(self, "min_views", self.min_views >= 2, "an integer >= 2 (a person is triangulated)")
+        check(self, "min_views", self.min_views is None or self.min_views >= 2,
+              "null (auto) or an integer >= 2 (a person is triangulated)")
         check(self, "confirm_frames", self.confirm_frames >= 1, "an integer >= 1")
         check(self, "max_missed", self.max_missed >= 0, "an integer >= 0")
+        check(self, "max_under_viewed", self.max_under_viewed >= 0, "an integer >= 0")
         check(self, "radius", self.radius > 0, "> 0 m")
+        check(self, "consistency", self.consistency == 0 or self.consistency >= 1, "0 (off) or >= 1")
+
+    def views_needed(self, cameras: int) -> int:
+        """``min_views`` for a rig of ``cameras`` views (null: 3 with 4+ cameras, else 2)."""
+        if self.min_views is not None:
+            return self.min_views
+        return 3 if cameras >= 4 else 2
 
 
 @dataclass(frozen=True)

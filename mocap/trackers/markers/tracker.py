@@ -304,13 +304,18 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
                                    self.settings, self.rng, keep_particles=self.keep_particles,
                                    previous=self.history[-1], root_point=self.shaped.rest_joints[0],
                                    groups=self.groups)
+        return self.after_annealing(energy, chi), trace
+
+    def after_annealing(self, energy: MarkerEnergy, chi: np.ndarray) -> np.ndarray:
+        """The annealed estimate chi (D,) refined (Gauss-Newton), offsets learned: the rest of
+        :meth:`search` (the several-people tracker anneals its people together)."""
         self._refined = None
         if self.refinement.iterations:          # Gauss-Newton on the reprojection error
             chi, info = refine_pose(energy.points, chi, energy.obs, self.pinhole, self.body.limits,
                                     self.refinement, self.likelihood.gate_px)
             self._refined = RefineTrace(**info)
         self._learn_offsets(energy, chi)
-        return chi, trace
+        return chi
 
     def report(self, energy, n_views, chi, trace, timings) -> StepDiagnostics:
         points = energy.points(chi[None]).astype(np.float64)
