@@ -6,8 +6,9 @@
     result = mocap.track(seq, tracker="hybrid", body=body, seed=0)
     poses = [e.chi for e in result.estimates]
 
-The trackers are those of ``conf/tracker`` (:data:`mocap.trackers.presets.PRESETS`); keyword
-arguments override their settings exactly as ``tracker.<key>=...`` does on the command line.
+The trackers are the presets of :data:`mocap.trackers.presets.PRESETS` (``tracker=<name>`` on
+the command line); keyword arguments override their settings exactly as ``tracker.<key>=...``
+does on the command line.
 """
 
 from __future__ import annotations

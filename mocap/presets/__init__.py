@@ -37,7 +37,10 @@ TARGETS: dict[str, tuple[str, str, str]] = {
     "mocap.video.sequence.video_sequence": ("data", "mocap.video.sequence", "video_sequence"),
     # the same function's name before mocap/video/ held it: runs recorded then still rescore
     "mocap.data.video_sequence.video_sequence": ("data", "mocap.video.sequence", "video_sequence"),
-    **{f"mocap.trackers.factory.{f}": ("tracker", "mocap.trackers.factory", f)
+    "mocap.trackers.presets.make_tracker": ("tracker", "mocap.trackers.presets", "make_tracker"),
+    # the per-tracker builders runs recorded before the presets had one builder name: their
+    # metrics.json still reads (a tracker is never built from a file)
+    **{f"mocap.trackers.factory.{f}": ("tracker", "mocap.trackers.presets", "make_tracker")
        for f in ("make_apf_tracker", "make_local_tracker", "make_hybrid_tracker",
                  "make_marker_tracker", "make_marker_people_tracker")},
 }
