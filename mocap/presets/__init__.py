@@ -15,6 +15,7 @@ lists, mappings); anything else is refused in one line before anything is built 
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 from collections.abc import Mapping
@@ -44,9 +45,10 @@ TARGETS: dict[str, tuple[str, str, str]] = {
        for f in ("make_apf_tracker", "make_local_tracker", "make_hybrid_tracker",
                  "make_marker_tracker", "make_marker_people_tracker")},
 }
-#: keyword arguments a function with ``**options`` passes on: (module, function) whose
-#: parameters are the accepted keys
-_PASSED_ON = {"mocap.data.sources.synthetic_sequence": ("mocap.data.generate", "make_synthetic")}
+#: a function taking ``**keys`` that are its settings: (module, settings dataclass) whose fields
+#: are the accepted keys (:mod:`mocap.data.source_settings`)
+_SETTINGS = {"mocap.data.sources.synthetic_sequence": ("mocap.data.source_settings", "SyntheticSource"),
+             "mocap.data.sources.folder_sequence": ("mocap.data.source_settings", "FolderSource")}
 #: keys of a Hydra node that are instructions to Hydra, not arguments
 HYDRA_KEYS = ("_partial_", "_recursive_", "_convert_", "_args_")
 _MAX_DEPTH = 12
@@ -136,9 +138,9 @@ def _accepted(target: str, fn) -> set[str] | None:
     names = {n for n, p in params.items() if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
     if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
         return names
-    if target in _PASSED_ON:
-        module, attr = _PASSED_ON[target]
-        return names | set(inspect.signature(getattr(importlib.import_module(module), attr)).parameters)
+    if target in _SETTINGS:
+        module, attr = _SETTINGS[target]
+        return names | {f.name for f in dataclasses.fields(getattr(importlib.import_module(module), attr))}
     return None
 
 
