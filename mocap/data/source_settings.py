@@ -69,7 +69,26 @@ class FolderSource:
     detections: dict | None = None
 
 
+@dataclass(frozen=True)
+class CrowdSource:
+    """The synthetic crowd (``data=crowd``, :func:`mocap.data.crowd.crowd_sequence`) over
+    ``frames`` frames, drawn from ``seed``: ``layout``'s keypoints (BODY_25B: a keypoint
+    detector's, grouped per person) with ``noise_px`` pixels of noise; ``gap`` (m) between the
+    crossing people's lines; ``cameras`` null: the crowd's 5-view ring
+    (:data:`mocap.data.crowd.CROWD_RIG`), else a camera preset or rig config. The layout and the
+    noise are checked by the loader (their one-line errors)."""
+
+    frames: int = 80
+    seed: int = 0
+    noise_px: float = 1.0
+    gap: float = 0.3
+    cameras: str | dict | None = None
+    layout: str = "BODY_25B"
+    name: str = "crowd"
+
+
 #: a loader's ``_target_`` -> its settings class (:mod:`mocap.presets` checks a stored config's
 #: keys against its fields)
 SOURCES = {"mocap.data.sources.synthetic_sequence": SyntheticSource,
-           "mocap.data.sources.folder_sequence": FolderSource}
+           "mocap.data.sources.folder_sequence": FolderSource,
+           "mocap.data.crowd.crowd_sequence": CrowdSource}
