@@ -87,8 +87,36 @@ class CrowdSource:
     name: str = "crowd"
 
 
+@dataclass(frozen=True)
+class OpenPoseSource:
+    """A keypoint recording in Pose2Sim's layout (``data=pose2sim_demo``,
+    :func:`mocap.data.openpose.load_openpose_sequence`): ``path`` the project folder (required);
+    ``calibration`` a file relative to it (null: the single ``*.toml`` in it or in
+    ``calibration/``); ``keypoints`` the folder of per-camera OpenPose JSON folders (null:
+    ``pose``); ``layout`` a name of :data:`mocap.body.skeletons.LAYOUTS` or ``auto`` (detected
+    from the files); ``fps``; ``person`` ``subject`` (one person picked per frame) or ``all``
+    (everyone kept); ``min_confidence`` drops keypoints below it (confidence 0 is always
+    dropped); ``frames`` keep the first N; ``name`` the sequence's; ``gt`` a ground-truth file
+    (gt.npz, joints by name, optionally several people; null: the folder's gt.npz when there is
+    one; ``none``: no ground truth); ``nonfinite`` NaN / Inf ground-truth joints: refuse or drop.
+    Checked by the loader (its one-line errors)."""
+
+    path: str | None = None
+    calibration: str | None = None
+    keypoints: str | None = None
+    layout: str = "BODY_25B"
+    fps: float = 30.0
+    person: str = "subject"
+    min_confidence: float = 0.0
+    frames: int | None = None
+    name: str | None = None
+    gt: str | None = None
+    nonfinite: str = "refuse"
+
+
 #: a loader's ``_target_`` -> its settings class (:mod:`mocap.presets` checks a stored config's
 #: keys against its fields)
 SOURCES = {"mocap.data.sources.synthetic_sequence": SyntheticSource,
            "mocap.data.sources.folder_sequence": FolderSource,
-           "mocap.data.crowd.crowd_sequence": CrowdSource}
+           "mocap.data.crowd.crowd_sequence": CrowdSource,
+           "mocap.data.openpose.openpose_sequence": OpenPoseSource}

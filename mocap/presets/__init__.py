@@ -49,7 +49,8 @@ TARGETS: dict[str, tuple[str, str, str]] = {
 #: are the accepted keys (:mod:`mocap.data.source_settings`)
 _SETTINGS = {"mocap.data.sources.synthetic_sequence": ("mocap.data.source_settings", "SyntheticSource"),
              "mocap.data.sources.folder_sequence": ("mocap.data.source_settings", "FolderSource"),
-             "mocap.data.crowd.crowd_sequence": ("mocap.data.source_settings", "CrowdSource")}
+             "mocap.data.crowd.crowd_sequence": ("mocap.data.source_settings", "CrowdSource"),
+             "mocap.data.openpose.openpose_sequence": ("mocap.data.source_settings", "OpenPoseSource")}
 #: keys of a Hydra node that are instructions to Hydra, not arguments
 HYDRA_KEYS = ("_partial_", "_recursive_", "_convert_", "_args_")
 _MAX_DEPTH = 12
