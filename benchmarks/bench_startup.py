@@ -5,7 +5,9 @@
         [--commands floor,help,bad,export,track] [--modes cached,dontwrite,nopyc] [--out FILE]
 
 Commands: ``floor`` (``python -c pass``: the interpreter alone), ``help`` (``mocap --help``),
-``bad`` (``mocap export`` without its arguments: an argument error), ``export`` (``mocap export
+``bad`` (``mocap export`` without its arguments: an argument error), ``trackhelp`` / ``trackbad``
+(``mocap track --help`` / ``mocap track bogus=1``: a Hydra command's help and override error,
+which compose its config), ``calhelp`` (``mocap calibrate --help``), ``export`` (``mocap export
 RUN --format bvh`` of a 60-frame run; ``--run`` names one, else one is tracked first with
 ``tracker=marker_apf data=walk_markers_small data.frames=60``) and ``track`` (``mocap track
 tracker=hybrid data=walk_small frames=2``, recording on, into a temporary folder).
@@ -61,6 +63,9 @@ def commands(run: Path, tmp: Path, i: int) -> dict[str, tuple[list[str], int]]:
         "floor": ([sys.executable, "-c", "pass"], 0),
         "help": ([*m, "--help"], 0),
         "bad": ([*m, "export"], 2),
+        "trackhelp": ([*m, "track", "--help"], 0),
+        "trackbad": ([*m, "track", "bogus=1"], 2),
+        "calhelp": ([*m, "calibrate", "--help"], 0),
         "export": ([*m, "export", str(run), "--format", "bvh", "--out", str(tmp / "run60.bvh"),
                     "--overwrite"], 0),
         "track": ([*m, "track", "tracker=hybrid", "data=walk_small", "frames=2",
@@ -111,7 +116,7 @@ def main() -> None:
         for name in names:                           # warm-up: bytecode and numba caches filled
             argv, status = commands(run, tmp, next(calls))[name]
             timed(argv, environment("cached", empty), status)
-        print(f"{'command':<8} {'mode':<10} {'median s':>9} {'min s':>7} {'cpu s':>6}  target   load")
+        print(f"{'command':<9} {'mode':<10} {'median s':>9} {'min s':>7} {'cpu s':>6}  target   load")
         for name in names:
             for mode in args.modes.split(","):
                 load = os.getloadavg()[0]
@@ -125,7 +130,7 @@ def main() -> None:
                 if isinstance(target, dict):
                     target = target.get(mode)
                 med, cpu = statistics.median(times), statistics.median(cpus)
-                print(f"{name:<8} {mode:<10} {med:9.2f} {min(times):7.2f} {cpu:6.2f}  "
+                print(f"{name:<9} {mode:<10} {med:9.2f} {min(times):7.2f} {cpu:6.2f}  "
                       f"{'' if target is None else f'<= {target}':<7} {load:5.1f}", flush=True)
                 if args.out:
                     with args.out.open("a") as f:

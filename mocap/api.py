@@ -6,8 +6,9 @@
     result = mocap.track(seq, tracker="hybrid", body=body, seed=0)
     poses = [e.chi for e in result.estimates]
 
-The trackers are those of ``conf/tracker`` (:data:`mocap.trackers.presets.PRESETS`); keyword
-arguments override their settings exactly as ``tracker.<key>=...`` does on the command line.
+The trackers are the presets of :data:`mocap.trackers.presets.PRESETS` (``tracker=<name>`` on
+the command line); keyword arguments override their settings exactly as ``tracker.<key>=...``
+does on the command line.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 
 from mocap.body import BodyModel, load_body
 from mocap.data.sequence import Sequence
+from mocap.data.source_settings import SyntheticSource
 from mocap.trackers.contract import Tracker
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import (
@@ -31,10 +33,13 @@ from mocap.trackers.run import (
 )
 
 
-def synthetic_sequence(body: BodyModel, cameras: str = "ring4_small", motion: str = "walk",
-                       frames: int = 20, fps: float = 25.0, seed: int = 0, **options) -> Sequence:
-    """A synthetic sequence with ground truth (see :func:`mocap.data.generate.make_synthetic`);
-    cameras: a preset name (:mod:`mocap.presets`) or a calibration file."""
+def synthetic_sequence(body: BodyModel, cameras: str = SyntheticSource.cameras,
+                       motion: str = SyntheticSource.motion, frames: int = SyntheticSource.frames,
+                       fps: float = SyntheticSource.fps, seed: int = SyntheticSource.seed,
+                       **options) -> Sequence:
+    """A synthetic sequence with ground truth (settings and defaults:
+    :class:`mocap.data.source_settings.SyntheticSource`); cameras: a preset name
+    (:mod:`mocap.presets`) or a calibration file."""
     from mocap.data.sources import synthetic_sequence as make
 
     return make(body=body, cameras=cameras, motion=motion, frames=frames, fps=fps, seed=seed, **options)

@@ -21,7 +21,8 @@ from pathlib import Path  # noqa: E402
 _HERE = Path(__file__).resolve().parent
 #: the Hydra config tree (groups: tracker, data, sweep, hydra/launcher, ...): the package data
 #: of an installed wheel, else conf/ of the checkout; read as ``mocap_cli.CONF_DIR``, which
-#: registers the resolvers its configs use
+#: registers the resolvers its configs use and the config nodes registered from Python
+#: (:mod:`mocap_cli.conf_schema`: the tracker presets, the data sources' defaults)
 _CONF_DIR = _HERE / "conf" if (_HERE / "conf").is_dir() else _HERE.parent / "conf"
 
 
@@ -67,6 +68,9 @@ def register_resolvers() -> None:
 
 def __getattr__(name: str):
     if name == "CONF_DIR":
+        from mocap_cli.conf_schema import register_configs
+
         register_resolvers()
+        register_configs()          # the tracker presets and data defaults the configs compose
         return _CONF_DIR
     raise AttributeError(f"module 'mocap_cli' has no attribute {name!r}")

@@ -27,14 +27,10 @@ VERSION_BASE = "1.3"
 
 
 def _register_schema() -> None:
-    """The tracker settings' structured configs (mocap_cli/conf_schema.py), where present."""
-    try:
-        from mocap_cli import conf_schema
-    except ImportError:
-        return
-    register = getattr(conf_schema, "register_configs", None)
-    if register is not None:
-        register()
+    """The tracker presets as config nodes (mocap_cli/conf_schema.py)."""
+    from mocap_cli import conf_schema
+
+    conf_schema.register_configs()
 
 
 @contextlib.contextmanager
@@ -113,11 +109,13 @@ def short_help(task: Callable, config_name: str, prog: str) -> str:
     doc = (sys.modules[task.__module__].__doc__ or "").strip()
     lines = [doc, ""] if doc else []
     cfg = compose(config_name)
+    from mocap_cli.conf_schema import options
+
     for group in _HELP_GROUPS:
         folder = Path(CONF_DIR) / group
-        if group in cfg and folder.is_dir():
-            names = sorted(p.stem for p in folder.glob("*.yaml"))
-            lines += textwrap.wrap(f"{group}=  {', '.join(names)}", 100, subsequent_indent="    ")
+        names = set(options(group)) | {p.stem for p in folder.glob("*.yaml")}
+        if group in cfg and names:
+            lines += textwrap.wrap(f"{group}=  {', '.join(sorted(names))}", 100, subsequent_indent="    ")
     common = [c for c in _HELP_COMMON
               if c.split("=")[0].split(".")[0] in cfg or c.startswith(("--", "hydra"))]
     conf = Path(CONF_DIR).relative_to(Path(CONF_DIR).parent.parent)

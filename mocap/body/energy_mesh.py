@@ -21,11 +21,7 @@ import numpy as np
 
 from mocap.body.build.topology import decimate, surface_coordinates
 
-# The silhouette APFs' default (apf, apf_prior, the hybrid's APF): the 10,000-triangle body
-# decimated to 2,000 (1,002 vertices; within 11 mm of the body, 1.9 mm on average). Measured
-# on the model-mismatch benchmark (3 seeds, README): no accuracy lost (apf_prior, hybrid), the
-# APF trackers about 2x faster per frame.
-ENERGY_MESH_FACES = 2000
+# The trackers' default face count is their settings' (mocap.trackers.tracker_settings.ENERGY_MESH_FACES).
 
 
 @dataclass(frozen=True)

@@ -20,13 +20,12 @@ from mocap.calibration.errors import CalibrationInputError
 from mocap.calibration.intrinsics import IntrinsicsSettings, calibrate_intrinsics
 from mocap.calibration.keypoints import read_view_keypoints
 from mocap.calibration.known_points import calibrate_known_points, read_known_points
+from mocap.calibration.methods import EXTRINSICS
 from mocap.calibration.people import PeopleSettings, calibrate_from_keypoints, check_overlap
 from mocap.calibration.report import Tile, contact_sheet, rms
 from mocap.calibration.scale_floor import floor_frame, measured_height, measured_length
 from mocap.calibration.sources import CameraSource, check_same_length, find_sources, frames
 from mocap.cameras import Rig, load_calibration, save_calibration
-
-EXTRINSICS = ("none", "board", "points", "people")
 
 
 @dataclass(frozen=True)

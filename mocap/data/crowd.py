@@ -8,7 +8,7 @@ frames). For tests and figures of the multi-person start-up and tracking.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -194,12 +194,11 @@ def with_false_skeletons(det: Detections, rows: np.ndarray, seed: int = 0) -> De
     return Detections(det.labels, frame, view, label, xy, conf, person)
 
 
-def crowd_sequence(*, body: BodyModel, frames: int = 80, seed: int = 0, noise_px: float = 1.0,
-                   gap: float = 0.3, cameras: str | Mapping | None = None, layout: str = "BODY_25B",
-                   false_people: int = 0, false_views: int = 2, name: str = "crowd") -> Sequence_:
+def crowd_sequence(*, body: BodyModel, **keys) -> Sequence_:
     """The synthetic crowd (:func:`crowd_scene`) as a keypoint detector sees it: ``layout``'s
     keypoints (:data:`mocap.body.skeletons.LAYOUTS`) grouped per person, ``noise_px`` pixel
-    noise, in ``cameras`` (None: :data:`CROWD_RIG`, 5 views). The sequence has no single-person
+    noise, in ``cameras`` (None: :data:`CROWD_RIG`, 5 views); ``keys``: the settings that differ
+    from :class:`~mocap.data.source_settings.CrowdSource`'s defaults. The sequence has no single-person
     ground truth; its several-people truth (mocap's joints per person, NaN where absent) is
     ``seq.meta["people_truth"]`` (:class:`mocap.data.people_truth.PeopleTruth`), with the
     scene's story under ``seq.meta["crowd"]``. ``false_people``: that many false skeletons
@@ -209,7 +208,13 @@ def crowd_sequence(*, body: BodyModel, frames: int = 80, seed: int = 0, noise_px
     from mocap.body.skeletons import LAYOUTS
     from mocap.cameras import rig_from_config
     from mocap.data.people_truth import KEY, PeopleTruth
+    from mocap.data.source_settings import CrowdSource
+    from mocap.settings import settings_from_mapping
 
+    s = settings_from_mapping(CrowdSource, keys)
+    frames, seed, noise_px, gap, cameras, layout, name = (s.frames, s.seed, s.noise_px, s.gap, s.cameras,
+                                                          s.layout, s.name)
+    false_people, false_views = s.false_people, s.false_views
     if layout not in LAYOUTS:
         raise ValueError(f"data.layout = {layout!r} is not a keypoint layout (allowed: {', '.join(LAYOUTS)})")
     if noise_px < 0:

@@ -11,6 +11,7 @@ from mocap.cameras import Rig
 from mocap.data.corruption import DetectionModel, SilhouetteNoise
 from mocap.data.motion import generate_motion
 from mocap.data.sequence import Sequence
+from mocap.data.source_settings import SyntheticSource
 from mocap.data.synthetic import Progress, generate_sequence
 
 
@@ -19,11 +20,17 @@ def subject_shape(body: BodyModel, seed: int, scale: float) -> np.ndarray:
     return np.random.default_rng([seed, 7]).normal(0.0, scale, body.num_shape)
 
 
+_S = SyntheticSource         # the defaults (mocap/data/source_settings.py)
+
+
 def make_synthetic(body: BodyModel, rig: Rig, *, motion: str, frames: int, fps: float, seed: int,
-                   split: str = "test", shape_scale: float = 0.8, radius: float = 1.0,
-                   masks: bool = True, images: bool = False, marker_spheres: bool = False,
-                   detections: Mapping | None = None, silhouette_noise: Mapping | None = None,
-                   name: str = "synthetic", progress: Progress | None = None) -> Sequence:
+                   split: str = _S.split, shape_scale: float = _S.shape_scale, radius: float = _S.radius,
+                   masks: bool = _S.masks, images: bool = _S.images,
+                   marker_spheres: bool = _S.marker_spheres, detections: Mapping | None = _S.detections,
+                   silhouette_noise: Mapping | None = _S.silhouette_noise, name: str = _S.name,
+                   progress: Progress | None = None) -> Sequence:
+    """A synthetic sequence rendered for ``rig`` (the settings and their defaults:
+    :class:`~mocap.data.source_settings.SyntheticSource`)."""
     chi = generate_motion(body, motion, frames, fps=fps, seed=seed, split=split, radius=radius)
     det = None
     occlusion = True

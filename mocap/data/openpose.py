@@ -21,6 +21,7 @@ false positives for the tracker).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import re
@@ -33,6 +34,8 @@ import numpy as np
 from mocap.body.skeletons import LAYOUT_BONES, LAYOUTS
 from mocap.cameras import Rig, load_calibration, project, triangulate
 from mocap.data.sequence import Detections, Sequence
+from mocap.data.source_settings import OpenPoseSource
+from mocap.settings import settings_from_mapping
 
 
 class OpenPoseFormatError(ValueError):
@@ -356,11 +359,15 @@ def find_ground_truth(root: Path, gt: str | Path | None) -> Path | None:
     return p
 
 
-def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None = None,
-                           keypoints: str | Path | None = None, layout: str = "BODY_25B",
-                           fps: float = 30.0, person: str = "subject", min_confidence: float = 0.0,
-                           frames: int | None = None, name: str | None = None,
-                           gt: str | Path | None = None, nonfinite: str = "refuse") -> Sequence:
+_S = OpenPoseSource         # the defaults (mocap/data/source_settings.py)
+
+
+def load_openpose_sequence(path: str | Path, *, calibration: str | Path | None = _S.calibration,
+                           keypoints: str | Path | None = _S.keypoints, layout: str = _S.layout,
+                           fps: float = _S.fps, person: str = _S.person,
+                           min_confidence: float = _S.min_confidence, frames: int | None = _S.frames,
+                           name: str | None = _S.name, gt: str | Path | None = _S.gt,
+                           nonfinite: str = _S.nonfinite) -> Sequence:
     """A :class:`Sequence` with a rig and labelled keypoint detections, and ground truth
     when the folder has a ``gt.npz`` or ``gt`` names one.
 
@@ -484,17 +491,19 @@ def _find_calibration(root: Path) -> Path:
     raise FileNotFoundError(f"no calibration (*.toml) in {root} or {root / 'calibration'}")
 
 
-def openpose_sequence(*, body=None, path: str, **options) -> Sequence:
-    """Hydra entry point (``conf/data/pose2sim_demo.yaml``); ``body`` is accepted and unused.
-    An unknown setting is refused by name (before any file is read)."""
-    import inspect
-
-    known = [p for p in inspect.signature(load_openpose_sequence).parameters if p != "path"]
-    unknown = sorted(set(options) - set(known))
+def openpose_sequence(*, body=None, **keys) -> Sequence:
+    """Hydra entry point (``conf/data/pose2sim_demo.yaml``); ``body`` is accepted and unused;
+    ``keys``: the settings that differ from :class:`~mocap.data.source_settings.OpenPoseSource`'s
+    defaults. An unknown setting is refused by name (before any file is read)."""
+    known = [f.name for f in dataclasses.fields(OpenPoseSource) if f.name != "path"]
+    unknown = sorted(set(keys) - {"path", *known})
     if unknown:
         raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a keypoint recording "
                          f"(settings: path, {', '.join(known)})")
-    return load_openpose_sequence(path, **options)
+    s = settings_from_mapping(OpenPoseSource, keys)
+    if s.path is None:
+        raise ValueError("setting data.path is missing: the recording folder (data.path=/path/to/recording)")
+    return load_openpose_sequence(s.path, **{k: getattr(s, k) for k in known})
 
 
 def convert_pose2sim(src: str | Path, out: str | Path, *, person: str = "all", overwrite: bool = False,

@@ -1,9 +1,9 @@
-"""Sequences from configuration (``conf/data/*.yaml``): synthetic in memory, or a folder."""
+"""Sequences from configuration (``conf/data/*.yaml``): synthetic in memory, or a folder; their
+settings and defaults: :mod:`mocap.data.source_settings`."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from collections.abc import Sequence as Sequence_
 from dataclasses import replace
 from pathlib import Path
 
@@ -15,41 +15,27 @@ from mocap.data.corruption import SilhouetteNoise
 from mocap.data.generate import make_synthetic
 from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import NO_GT_HINT, gt_opted_out, load_sequence
+from mocap.data.source_settings import FolderSource, SyntheticSource
+from mocap.settings import settings_from_mapping
 
 
-def synthetic_sequence(*, body: BodyModel, cameras: str | Mapping, motion: str, frames: int,
-                       fps: float, seed: int, name: str = "synthetic", **options) -> Sequence:
-    """Generate a sequence in memory (see :func:`mocap.data.generate.make_synthetic`)."""
-    from mocap.checks import check_fps
-
-    check_fps(fps, "data.fps")
-    rig = rig_from_config(cameras)
-    return make_synthetic(body, rig, motion=motion, frames=frames, fps=fps, seed=seed, name=name,
-                          **options)
+def synthetic_sequence(*, body: BodyModel, **keys) -> Sequence:
+    """Generate a sequence in memory; ``keys``: the settings that differ from
+    :class:`~mocap.data.source_settings.SyntheticSource`'s defaults."""
+    s = settings_from_mapping(SyntheticSource, keys)
+    rig = rig_from_config(s.cameras)
+    return make_synthetic(body, rig, **{k: v for k, v in vars(s).items() if k != "cameras"})
 
 
-def folder_sequence(*, body: BodyModel, path: str, images: bool = True, name: str | None = None,
-                    views: Sequence_[int | str] | None = None,
-                    silhouette_noise: Mapping | None = None, seed: int = 0,
-                    nonfinite: str = "refuse", gt: str | None = None,
-                    detections: Mapping | None = None) -> Sequence:
-    """A sequence folder written by ``mocap make-dataset`` (or converted data).
-
-    path: the folder (a relative path is relative to the working directory).
-    views: keep only these views (indices or camera names, in this order), e.g. [0, 2, 4, 6].
-    silhouette_noise: options of :class:`mocap.data.corruption.SilhouetteNoise` applied to
-    every mask, deterministically for ``seed`` (the same seed gives the same masks).
-    nonfinite: NaN / Inf in the ground truth or detections: refuse (default) or drop them
-    (counted in the sequence's meta and the run's metrics.json, ``dropped_nonfinite``).
-    gt: a ground-truth file used instead of the folder's gt.npz (which is otherwise used
-    whenever it is there): joints by name, :func:`mocap.data.sequence_io.load_ground_truth`;
-    "none": no ground truth, the folder's gt.npz ignored.
-    detections: None or ``{semantics: null}``: the folder's detections; ``{semantics: realistic}``
-    (or ``offsets_only``, plus any field of :class:`mocap.data.detector_semantics.DetectorSemantics`):
-    detections simulated from the ground-truth joints in every view with a real detector's
-    semantics, seeded by ``seed`` and the folder's name (the same seed gives the same detections;
-    a ``views`` subset sees the same detections as the full rig).
-    """
+def folder_sequence(*, body: BodyModel, **keys) -> Sequence:
+    """A sequence folder written by ``mocap make-dataset`` (or converted data); ``keys``: the
+    settings that differ from :class:`~mocap.data.source_settings.FolderSource`'s defaults (a
+    ``views`` subset sees the same simulated detections as the full rig)."""
+    s = settings_from_mapping(FolderSource, keys)
+    path, images, name, views, silhouette_noise, seed, nonfinite, gt, detections = (
+        s.path, s.images, s.name, s.views, s.silhouette_noise, s.seed, s.nonfinite, s.gt, s.detections)
+    if path is None:
+        raise ValueError("setting data.path is missing: the sequence folder (data.path=/path/to/seq)")
     p = Path(path)
     if not p.is_dir():
         raise FileNotFoundError(f"data path not found: {p}")

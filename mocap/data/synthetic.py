@@ -12,6 +12,7 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig, project
 from mocap.data.corruption import DetectionModel, SilhouetteNoise
 from mocap.data.sequence import Detections, GroundTruth, Sequence
+from mocap.data.source_settings import SyntheticSource
 from mocap.render import rasterize_silhouettes
 
 Progress = Callable[[int, int], None]
@@ -63,9 +64,10 @@ def landmark_parts(body: BodyModel, landmarks: LandmarkSet) -> list[set[int]]:
 
 
 def generate_sequence(body: BodyModel, rig: Rig, chi: np.ndarray, alpha: np.ndarray, *,
-                      name: str = "synthetic", fps: float = 25.0, seed: int = 0,
-                      landmarks: LandmarkSet | None = None, masks: bool = True,
-                      images: bool = False, marker_spheres: bool = False,
+                      name: str = SyntheticSource.name, fps: float = SyntheticSource.fps,
+                      seed: int = SyntheticSource.seed, landmarks: LandmarkSet | None = None,
+                      masks: bool = SyntheticSource.masks, images: bool = SyntheticSource.images,
+                      marker_spheres: bool = SyntheticSource.marker_spheres,
                       detections: DetectionModel | None = None,
                       silhouette_noise: SilhouetteNoise | None = None,
                       occlusion: bool = True, progress: Progress | None = None,

@@ -46,6 +46,7 @@ from mocap.body.model import ShapedBody
 from mocap.cameras import Rig, fundamental_matrices, undistort_points
 from mocap.data.sequence import Detections
 from mocap.energy.fallback import warn_once
+from mocap.energy.marker_likelihood import MarkerLikelihood  # noqa: F401  (re-exported: its settings)
 
 try:                                    # the compiled kernels need numba; numpy is the fallback
     from mocap.energy.marker_kernel import (
@@ -169,28 +170,6 @@ def pinhole_project(rig: Rig, points: np.ndarray,
     u = K[:, 0, 0] * x + K[:, 0, 1] * y + K[:, 0, 2]
     v = K[:, 1, 1] * y + K[:, 1, 2]
     return np.stack([u, v], axis=-1), z
-
-
-@dataclass(frozen=True)
-class MarkerLikelihood:
-    """gate_px: tau, the outlier threshold (pixels); min_views: landmarks with candidates in
-    fewer views get temporal coherence; coherence_radius: r (metres); coherence_weight:
-    multiplies the coherence term (0 disables it); near: minimum depth (m) of a usable view;
-    use_confidence: weigh each kept detection by its confidence (module docstring); compiled:
-    evaluate with the compiled kernels (:mod:`mocap.energy.marker_kernel`), else
-    with the numpy reference."""
-
-    gate_px: float = 30.0
-    min_views: int = 3
-    coherence_radius: float = 0.15
-    coherence_weight: float = 1.0
-    near: float = 0.05
-    compiled: bool = True
-    use_confidence: bool = False
-
-    def __post_init__(self) -> None:
-        if not self.gate_px > 0 or not self.coherence_radius > 0:
-            raise ValueError("gate_px and coherence_radius must be positive")
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ lists, mappings); anything else is refused in one line before anything is built 
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 from collections.abc import Mapping
@@ -37,13 +38,19 @@ TARGETS: dict[str, tuple[str, str, str]] = {
     "mocap.video.sequence.video_sequence": ("data", "mocap.video.sequence", "video_sequence"),
     # the same function's name before mocap/video/ held it: runs recorded then still rescore
     "mocap.data.video_sequence.video_sequence": ("data", "mocap.video.sequence", "video_sequence"),
-    **{f"mocap.trackers.factory.{f}": ("tracker", "mocap.trackers.factory", f)
+    "mocap.trackers.presets.make_tracker": ("tracker", "mocap.trackers.presets", "make_tracker"),
+    # the per-tracker builders runs recorded before the presets had one builder name: their
+    # metrics.json still reads (a tracker is never built from a file)
+    **{f"mocap.trackers.factory.{f}": ("tracker", "mocap.trackers.presets", "make_tracker")
        for f in ("make_apf_tracker", "make_local_tracker", "make_hybrid_tracker",
                  "make_marker_tracker", "make_marker_people_tracker")},
 }
-#: keyword arguments a function with ``**options`` passes on: (module, function) whose
-#: parameters are the accepted keys
-_PASSED_ON = {"mocap.data.sources.synthetic_sequence": ("mocap.data.generate", "make_synthetic")}
+#: a function taking ``**keys`` that are its settings: (module, settings dataclass) whose fields
+#: are the accepted keys (:mod:`mocap.data.source_settings`)
+_SETTINGS = {"mocap.data.sources.synthetic_sequence": ("mocap.data.source_settings", "SyntheticSource"),
+             "mocap.data.sources.folder_sequence": ("mocap.data.source_settings", "FolderSource"),
+             "mocap.data.crowd.crowd_sequence": ("mocap.data.source_settings", "CrowdSource"),
+             "mocap.data.openpose.openpose_sequence": ("mocap.data.source_settings", "OpenPoseSource")}
 #: keys of a Hydra node that are instructions to Hydra, not arguments
 HYDRA_KEYS = ("_partial_", "_recursive_", "_convert_", "_args_")
 _MAX_DEPTH = 12
@@ -133,9 +140,9 @@ def _accepted(target: str, fn) -> set[str] | None:
     names = {n for n, p in params.items() if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
     if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
         return names
-    if target in _PASSED_ON:
-        module, attr = _PASSED_ON[target]
-        return names | set(inspect.signature(getattr(importlib.import_module(module), attr)).parameters)
+    if target in _SETTINGS:
+        module, attr = _SETTINGS[target]
+        return names | {f.name for f in dataclasses.fields(getattr(importlib.import_module(module), attr))}
     return None
 
 

@@ -1,8 +1,7 @@
-"""Tracker constructors. ``build_*``: a tracker from its settings dataclass (the presets of
-:mod:`mocap.trackers.presets` use them); ``make_*``: the same from keyword settings, checked and
-made into the settings dataclass first (``conf/tracker/*.yaml`` name them in
-``_target_``; Hydra calls them with ``body``, ``rig``, ``rng`` and the config's keys). Every
-default is the settings dataclass's (:mod:`mocap.trackers.tracker_settings`,
+"""Tracker constructors: :func:`build_tracker` builds a tracker from its settings dataclass,
+the settings' class choosing which (:data:`BUILDERS`); the named presets
+(:func:`mocap.trackers.presets.make_tracker`, for the Python API and Hydra alike) come
+through it. Every default is the settings dataclass's (:mod:`mocap.trackers.tracker_settings`,
 :mod:`mocap.trackers.markers.settings`)."""
 
 from __future__ import annotations
@@ -15,9 +14,9 @@ import numpy as np
 from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.prior import ParzenPrior, PosePrior, default_prior_path
-from mocap.settings import settings_from_mapping
 from mocap.trackers.hybrid_tracker import HybridTracker, library_poses
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.markers.settings import MarkerPeopleSettings, MarkerSettings
 from mocap.trackers.silhouette_tracker import APFTracker, internal_scale  # noqa: F401  (internal_scale: re-exported)
 from mocap.trackers.tracker_settings import (
     APFTrackerSettings,
@@ -111,38 +110,17 @@ def build_marker_people_tracker(body: BodyModel, rig: Rig, rng: np.random.Genera
     return people
 
 
-def make_apf_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "apf",
-                     **keys) -> APFTracker:
-    """:func:`build_apf_tracker` with :class:`APFTrackerSettings` from ``keys``."""
-    return build_apf_tracker(body, rig, rng, settings_from_mapping(APFTrackerSettings, keys), name)
+#: settings class -> the function building its tracker: (body, rig, rng, settings, name) -> tracker
+BUILDERS = {APFTrackerSettings: build_apf_tracker, LocalSettings: build_local_tracker,
+            HybridSettings: build_hybrid_tracker, MarkerSettings: build_marker_tracker,
+            MarkerPeopleSettings: build_marker_people_tracker}
 
 
-def make_local_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "local",
-                       **keys) -> LocalTracker:
-    """:func:`build_local_tracker` with :class:`LocalSettings` from ``keys``."""
-    return build_local_tracker(body, rig, rng, settings_from_mapping(LocalSettings, keys), name)
-
-
-def make_hybrid_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "hybrid",
-                        **keys) -> HybridTracker:
-    """:func:`build_hybrid_tracker` with :class:`HybridSettings` from ``keys``."""
-    return build_hybrid_tracker(body, rig, rng, settings_from_mapping(HybridSettings, keys), name)
-
-
-def make_marker_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator, name: str = "marker_apf",
-                        **keys):
-    """:func:`build_marker_tracker` with
-    :class:`~mocap.trackers.markers.settings.MarkerSettings` from ``keys``."""
-    from mocap.trackers.markers.settings import MarkerSettings
-
-    return build_marker_tracker(body, rig, rng, settings_from_mapping(MarkerSettings, keys), name)
-
-
-def make_marker_people_tracker(*, body: BodyModel, rig: Rig, rng: np.random.Generator,
-                               name: str = "marker_people", **keys):
-    """:func:`build_marker_people_tracker` with
-    :class:`~mocap.trackers.markers.settings.MarkerPeopleSettings` from ``keys``."""
-    from mocap.trackers.markers.settings import MarkerPeopleSettings
-
-    settings = settings_from_mapping(MarkerPeopleSettings, keys)
-    return build_marker_people_tracker(body, rig, rng, settings, name)
+def build_tracker(body: BodyModel, rig: Rig, rng: np.random.Generator, settings, name: str):
+    """The tracker configured by ``settings`` (an instance of a key of :data:`BUILDERS`), named
+    ``name``."""
+    build = BUILDERS.get(type(settings))
+    if build is None:
+        raise TypeError(f"no tracker is built from {type(settings).__name__} "
+                        f"(settings classes: {', '.join(c.__name__ for c in BUILDERS)})")
+    return build(body, rig, rng, settings, name)

@@ -1,32 +1,22 @@
-"""The named trackers: each is a settings object (the settings dataclass's defaults with a
-preset's differences applied) and the function that builds the tracker from it.
+"""The named trackers (presets): each is a settings object, the settings dataclass's defaults
+with the preset's differences applied; the kind of tracker is the settings' class. This is the
+only place a preset is written: the command line's ``tracker=<name>`` is the same preset,
+registered with Hydra from here (:mod:`mocap_cli.conf_schema`), and both build it with
+:func:`make_tracker` (``tracker.<key>=...`` overrides are its keyword overrides).
 
-``conf/tracker/<name>.yaml`` selects the same tracker for Hydra and lists the same
-differences (``apf_25x10`` composes ``apf``, ``apf_prior`` composes ``apf_25x10``,
-``apf_prior_real`` ``apf_prior``; ``hybrid_prior``, ``hybrid_100x15`` and ``hybrid_kp`` compose
-``hybrid``, ``hybrid_prior_real`` ``hybrid_prior``); ``tests/trackers/test_settings.py`` checks
-that both give the same settings.
+Importing this module imports none of the numeric stack (the settings modules are plain
+dataclasses); :func:`make_tracker` imports the trackers when it builds one.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 from mocap.settings import with_overrides
-from mocap.trackers import factory
 from mocap.trackers.markers.settings import MarkerPeopleSettings, MarkerSettings
 from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, LocalSettings
-
-
-@dataclass(frozen=True)
-class Preset:
-    """build: (body, rig, rng, settings, name) -> tracker; settings: the preset's."""
-
-    build: Callable
-    settings: Any
-
 
 #: each tracker config's settings dataclass, whose defaults are the config's defaults
 SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSettings,
@@ -62,22 +52,21 @@ def _real(prior):
     return replace(prior, prior_source="real", learned_weight=REAL_PRIOR_WEIGHT)
 
 
-#: name -> preset
-PRESETS: dict[str, Preset] = {
-    "apf": Preset(factory.build_apf_tracker, APFTrackerSettings()),
-    "apf_25x10": Preset(factory.build_apf_tracker, _APF_25X10),
-    "apf_prior": Preset(factory.build_apf_tracker, _APF_PRIOR),
-    "apf_prior_real": Preset(factory.build_apf_tracker, replace(_APF_PRIOR, prior=_real(_APF_PRIOR.prior))),
-    "local": Preset(factory.build_local_tracker, LocalSettings()),
-    "hybrid": Preset(factory.build_hybrid_tracker, HybridSettings()),
-    "hybrid_prior": Preset(factory.build_hybrid_tracker, _HYBRID_PRIOR),
-    "hybrid_100x15": Preset(factory.build_hybrid_tracker, _HYBRID_100X15),
-    "hybrid_prior_real": Preset(factory.build_hybrid_tracker,
-                                replace(_HYBRID_PRIOR, apf=replace(_HYBRID_PRIOR.apf,
-                                                                   prior=_real(_HYBRID_PRIOR.apf.prior)))),
-    "hybrid_kp": Preset(factory.build_hybrid_tracker, _HYBRID_KP),
-    "marker_apf": Preset(factory.build_marker_tracker, MarkerSettings()),
-    "marker_people": Preset(factory.build_marker_people_tracker, MarkerPeopleSettings()),
+#: name -> the preset's settings (its class says which tracker: :data:`SETTINGS_CLASSES`)
+PRESETS: dict[str, Any] = {
+    "apf": APFTrackerSettings(),
+    "apf_25x10": _APF_25X10,
+    "apf_prior": _APF_PRIOR,
+    "apf_prior_real": replace(_APF_PRIOR, prior=_real(_APF_PRIOR.prior)),
+    "local": LocalSettings(),
+    "hybrid": HybridSettings(),
+    "hybrid_prior": _HYBRID_PRIOR,
+    "hybrid_100x15": _HYBRID_100X15,
+    "hybrid_prior_real": replace(_HYBRID_PRIOR,
+                                 apf=replace(_HYBRID_PRIOR.apf, prior=_real(_HYBRID_PRIOR.apf.prior))),
+    "hybrid_kp": _HYBRID_KP,
+    "marker_apf": MarkerSettings(),
+    "marker_people": MarkerPeopleSettings(),
 }
 
 
@@ -87,10 +76,14 @@ def preset_settings(name: str, overrides: Mapping | None = None):
     one-line ValueError naming the key)."""
     if name not in PRESETS:
         raise ValueError(f"unknown tracker {name!r}; available: {', '.join(sorted(PRESETS))}")
-    return with_overrides(PRESETS[name].settings, overrides)
+    return with_overrides(PRESETS[name], overrides)
 
 
 def make_tracker(name: str, *, body, rig, rng, **overrides):
-    """The tracker ``name`` with ``overrides`` of its settings (e.g. ``particles=50``,
-    ``energy={"smoothness": 0.1}``)."""
-    return PRESETS[name].build(body, rig, rng, preset_settings(name, overrides), name)
+    """The tracker ``name`` (a preset) with ``overrides`` of its settings (e.g. ``particles=50``,
+    ``energy={"smoothness": 0.1}``); the one builder of a named tracker, for the Python API and
+    for Hydra (``_target_`` of every ``tracker=<name>`` node, which passes the whole settings
+    tree as overrides)."""
+    from mocap.trackers.factory import build_tracker
+
+    return build_tracker(body, rig, rng, preset_settings(name, overrides), name)

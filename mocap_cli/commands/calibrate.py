@@ -23,8 +23,7 @@ from __future__ import annotations
 
 import argparse
 
-from mocap.calibration.boards import parse_board
-from mocap.calibration.pipeline import EXTRINSICS, CalibrateOptions, run_calibration, summary
+from mocap.calibration.methods import EXTRINSICS
 from mocap_cli.errors import ArgumentParser
 
 
@@ -64,6 +63,9 @@ def main(argv: list[str] | None = None) -> int:
             length = (a.length[0], a.length[1], float(a.length[2]))
         except ValueError:
             p.error(f"--length: METRES must be a number, got {a.length[2]!r}")
+    from mocap.calibration.boards import parse_board  # (the numeric stack: after the arguments)
+    from mocap.calibration.pipeline import CalibrateOptions, run_calibration, summary
+
     options = CalibrateOptions(out=a.out, intrinsics=a.intrinsics, intrinsics_from=a.intrinsics_from,
                                board=parse_board(a.board), extrinsics=a.extrinsics, board_views=a.board_views,
                                points=a.points, keypoints=a.keypoints, layout=a.layout, height=a.height,

@@ -6,9 +6,10 @@ import pytest
 import trimesh
 from scipy.stats import spearmanr
 
-from mocap.body.energy_mesh import ENERGY_MESH_FACES, energy_mesh_for, make_energy_mesh
+from mocap.body.energy_mesh import energy_mesh_for, make_energy_mesh
 from mocap.cameras import ring_rig
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
+from mocap.trackers.tracker_settings import ENERGY_MESH_FACES
 
 
 def random_poses(body, n, std, seed=0):
@@ -87,7 +88,11 @@ def test_energy_mesh_is_deterministic_and_refuses_bad_input(body, body64):
 
 
 def test_apf_trackers_take_the_option(body):
-    from mocap.trackers.factory import make_apf_tracker, make_hybrid_tracker
+    from functools import partial
+
+    from mocap.trackers.presets import make_tracker
+
+    make_apf_tracker, make_hybrid_tracker = partial(make_tracker, "apf"), partial(make_tracker, "hybrid")
 
     rig = ring_rig(4, 3.5, 1.5, 128, 128, fov_deg=50, look_at=(0, 0, 0.9))
     rng = np.random.default_rng(0)

@@ -7,17 +7,19 @@ import pytest
 from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
-from mocap_cli import CONF_DIR as CONF  # importing mocap_cli registers ${mocap_data:}
+from mocap_cli import CONF_DIR as CONF  # reading it registers ${mocap_data:} and the Python-registered nodes
 
 REPO = Path(__file__).resolve().parents[2]
 
 
 def options(group: str) -> list[str]:
-    """A group's options: conf/<group> and the package's presets (mocap/presets/<group>)."""
+    """A group's options: conf/<group>, the package's presets (mocap/presets/<group>) and the
+    nodes registered from Python (mocap_cli/conf_schema.py: the tracker presets)."""
     from mocap import presets
+    from mocap_cli.conf_schema import options as registered
 
     packaged = presets.names(group) if group in presets.KINDS else []
-    return sorted({p.stem for p in (CONF / group).glob("*.yaml")} | set(packaged))
+    return sorted({p.stem for p in (CONF / group).glob("*.yaml")} | set(packaged) | set(registered(group)))
 
 
 def test_every_group_has_options():

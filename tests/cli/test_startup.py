@@ -1,7 +1,9 @@
 """Start-up (issue 38): ``mocap --help``, an unknown command and the argument errors and help of the
 commands that take flags import none of the numeric stack (numpy, OpenCV, numba, scipy) nor Hydra,
-Rerun or matplotlib: a command imports what it needs once its arguments are read. Checked in a
-fresh interpreter (this one has them all loaded)."""
+Rerun or matplotlib: a command imports what it needs once its arguments are read. ``mocap track``'s
+help and override errors compose its config (Hydra), the tracker presets' settings included, and
+still import none of the numeric stack. Checked in a fresh interpreter (this one has them all
+loaded)."""
 
 import json
 import subprocess
@@ -10,10 +12,11 @@ import sys
 import pytest
 
 HEAVY = ("numpy", "cv2", "numba", "scipy", "hydra", "omegaconf", "rerun", "matplotlib")
+NUMERIC = ("numpy", "cv2", "numba", "scipy")
 
 #: the commands that take flags (the Hydra commands compose their configs, settings classes included)
 FLAG_COMMANDS = ["replay", "export", "ablate", "detect", "rescore", "train-prior", "build-body-model",
-                 "show-body"]
+                 "show-body", "calibrate"]
 
 
 def imported_by(argv: list[str]) -> tuple[int, list[str]]:
@@ -45,3 +48,36 @@ def test_help_and_argument_errors_import_no_numeric_stack(argv, status):
 def test_a_flag_commands_help_and_bad_flag_import_no_numeric_stack(command):
     assert imported_by([command, "--help"]) == (0, [])
     assert imported_by([command, "--no-such-flag"]) == (2, [])
+
+
+def imported_by_code(code: str) -> list[str]:
+    """The NUMERIC modules loaded by running ``code`` in a new interpreter."""
+    code += f"\nimport json, sys\nprint(json.dumps(sorted(m for m in {NUMERIC!r} if m in sys.modules)))\n"
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("argv, status", [(["track", "--help"], 0), (["track", "bogus=1"], 2),
+                                          (["track", "tracker.partcles=3"], 2),
+                                          (["track", "tracker=nope"], 2)],
+                         ids=["help", "unknown-key", "unknown-tracker-key", "unknown-tracker"])
+def test_track_help_and_override_errors_import_no_numeric_stack(argv, status):
+    rc, loaded = imported_by(argv)
+    assert (rc, [m for m in loaded if m in NUMERIC]) == (status, [])
+
+
+def test_track_help_lists_every_tracker_preset():
+    from mocap.trackers.presets import PRESETS
+
+    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", "--help"], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    listed = " ".join(r.stdout.split()).split("tracker= ", 1)[1].split(" data=")[0]
+    assert sorted(n.strip() for n in listed.split(",")) == sorted(PRESETS)
+
+
+@pytest.mark.parametrize("module", ["mocap.trackers.presets", "mocap.trackers.tracker_settings",
+                                    "mocap.trackers.markers.settings", "mocap_cli.conf_schema"])
+def test_the_settings_and_presets_import_no_numeric_stack(module):
+    assert imported_by_code(f"import {module}") == []

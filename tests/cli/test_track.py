@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mocap.trackers.presets import PRESETS
+
 REPO = Path(__file__).resolve().parents[2]
 # several people (marker_people) write other metrics: tests/cli/test_track_people.py
-TRACKERS = sorted(p.stem for p in (REPO / "conf" / "tracker").glob("*.yaml")
-                  if p.stem != "marker_people")
+TRACKERS = sorted(name for name in PRESETS if name != "marker_people")
 REQUIRED = {"tracker", "seed", "frames", "mpjpe_mm", "mpjpe_std_mm", "per_joint_mm",
             "sec_per_frame", "energy_evals_per_frame", "per_frame_mm"}
 

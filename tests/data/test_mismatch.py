@@ -11,9 +11,11 @@ from mocap.body.skeletons import SKELETONS
 from mocap.data.corruption import SilhouetteNoise
 from mocap.eval.by_name import NameScorer
 from mocap_build.mismatch import procedural as mm
+from mocap_cli.conf_schema import register_configs
 
 REPO = Path(__file__).resolve().parents[2]
 CONF = REPO / "conf"
+register_configs()              # the tracker presets and data defaults conf/ composes
 CONFIGS = {"mismatch_walk": "walk", "mismatch_box": "box", "mismatch_gesture": "gesture_turn"}
 
 

@@ -16,9 +16,11 @@ from mocap.cameras import project
 from mocap.eval.by_name import NameScorer
 from mocap_build.mismatch import real_motion as rm
 from mocap_cli import data_dir
+from mocap_cli.conf_schema import register_configs
 
 REPO = Path(__file__).resolve().parents[2]
 CONF = REPO / "conf"
+register_configs()              # the tracker presets and data defaults conf/ composes
 DATA = REPO / "data" / "real_motion"
 CLIPS = REPO.parent / "shared" / "data" / "real-motion"
 SPLIT = yaml.safe_load((REPO / "mocap" / "clips" / "split.yaml").read_text())

@@ -1,4 +1,4 @@
-"""The marker tracker end to end on synthetic detections (conf/tracker/marker_apf.yaml)."""
+"""The marker tracker end to end on synthetic detections (the marker_apf preset)."""
 
 import numpy as np
 import pytest

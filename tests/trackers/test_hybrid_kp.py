@@ -44,7 +44,7 @@ def arm_error_mm(body, seq, estimates, frames) -> float:
 
 
 def test_keypoint_weight_zero_is_the_hybrid_bit_for_bit(body, seq):
-    assert PRESETS["hybrid_kp"].settings.keypoints.weight > 0
+    assert PRESETS["hybrid_kp"].keypoints.weight > 0
     start = folded_arm(body, seq.gt.chi[0])
     runs = []
     for name, extra in (("hybrid", {}), ("hybrid_kp", {"keypoints": {"weight": 0.0}})):

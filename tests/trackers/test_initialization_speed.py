@@ -9,11 +9,10 @@ import pytest
 
 import mocap
 import mocap.trackers.initialization as initialization
-from mocap.body.energy_mesh import ENERGY_MESH_FACES
 from mocap.eval.by_name import NameScorer
 from mocap.settings import SettingError
 from mocap.trackers.initialization import initialize_from_silhouettes
-from mocap.trackers.tracker_settings import InitSettings
+from mocap.trackers.tracker_settings import ENERGY_MESH_FACES, InitSettings
 
 
 @pytest.fixture(scope="module")

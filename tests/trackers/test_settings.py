@@ -1,18 +1,19 @@
-"""Each default once: a tracker's settings are one frozen dataclass. The Hydra configs select
-and override only (no YAML value restates the default it would override, no YAML key the
-dataclass lacks), composing a config gives the Python preset's settings, every key is
-overridable without ``+``, and bad keys or values give one line naming the dotted key."""
+"""Each default once: a tracker's settings are one frozen dataclass, and a preset's differences
+are written once (mocap/trackers/presets.py): Hydra's ``tracker=<name>`` options are those
+presets, registered from Python (no YAML restates them), composing one gives the Python preset's
+settings and one builder builds both, every key is overridable without ``+``, and bad keys or
+values give one line naming the dotted key."""
 
 from __future__ import annotations
 
 import dataclasses
-import inspect
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
 from hydra.utils import instantiate
 
 import mocap
@@ -27,7 +28,7 @@ from mocap_cli.conf_schema import register_configs
 
 CONF = Path(__file__).resolve().parents[2] / "conf"
 TRACKERS = CONF / "tracker"
-NOT_SETTINGS = ("defaults", "_target_", "name")        # what a tracker config selects, not settings
+NOT_SETTINGS = ("_target_", "name")        # what a tracker config selects, not settings
 register_configs()
 
 
@@ -57,14 +58,13 @@ def at(settings, dotted: str):
 
 
 def settings_class(name: str) -> type:
-    return type(PRESETS[name].settings)
+    return type(PRESETS[name])
 
 
-def yaml_parent(name: str) -> str | None:
-    """The tracker config that ``name``'s config composes (None: only the settings' defaults)."""
-    own = yaml.safe_load((TRACKERS / f"{name}.yaml").read_text())
-    parents = [d for d in own.get("defaults", []) if isinstance(d, str) and d != "_self_"]
-    return parents[0] if parents else None
+def tracker_options() -> list[str]:
+    """The ``tracker=`` options Hydra offers with the shipped config folder."""
+    with initialize_config_dir(str(CONF), version_base="1.3"):
+        return sorted(GlobalHydra.instance().config_loader().get_group_options("tracker"))
 
 
 @pytest.fixture(scope="module")
@@ -72,11 +72,12 @@ def rig():
     return ring_rig(4, 3.5, 1.5, 160, 120, fov_deg=45, look_at=(0, 0, 0.9))
 
 
-def test_every_tracker_config_has_a_preset_and_every_preset_a_settings_class():
-    assert sorted(p.stem for p in TRACKERS.glob("*.yaml")) == sorted(PRESETS)
+def test_the_tracker_options_are_the_presets_and_no_yaml_restates_one():
+    assert tracker_options() == sorted(PRESETS)
+    assert not list(TRACKERS.glob("*.yaml"))
     assert {settings_class(n) for n in PRESETS} == set(SETTINGS_CLASSES.values())
     for name, cls in SETTINGS_CLASSES.items():
-        assert PRESETS[name].settings == cls(), name          # the root configs are the defaults
+        assert PRESETS[name] == cls(), name          # the root presets are the defaults
         assert dataclasses.is_dataclass(cls) and cls.__dataclass_params__.frozen
 
 
@@ -85,30 +86,15 @@ def test_composed_config_gives_the_python_preset(name, body, rig):
     cfg = compose_tracker(name)
     assert cfg.name == name
     keys = {k: v for k, v in cfg.items() if k not in NOT_SETTINGS}
-    assert settings_from_mapping(settings_class(name), keys) == PRESETS[name].settings
+    assert settings_from_mapping(settings_class(name), keys) == PRESETS[name]
+    assert cfg._target_ == "mocap.trackers.presets.make_tracker"           # one builder for all
     tracker = build(cfg, body, rig)
-    assert tracker.tracker_settings == PRESETS[name].settings and tracker.name == name
-
-
-@pytest.mark.parametrize("name", sorted(PRESETS))
-def test_no_yaml_value_restates_a_default_or_names_a_key_the_dataclass_lacks(name):
-    own = yaml.safe_load((TRACKERS / f"{name}.yaml").read_text())
-    parent = yaml_parent(name)
-    base = PRESETS[parent].settings if parent else settings_class(name)()
-    fields = set(settings_to_mapping(base))
-    for key, value in leaves({k: v for k, v in own.items() if k not in NOT_SETTINGS}):
-        assert key.split(".")[0] in fields, f"{name}.yaml: {key} is not a setting of {type(base).__name__}"
-        default = at(base, key)                   # raises AttributeError for an unknown nested key
-        assert value != (list(default) if isinstance(default, tuple) else default), \
-            f"{name}.yaml restates {key} = {value!r}, the value it overrides"
+    assert tracker.tracker_settings == PRESETS[name] and tracker.name == name
 
 
 def test_the_hybrid_composes_settings_not_another_tracker():
-    own = yaml.safe_load((TRACKERS / "hybrid.yaml").read_text())
-    assert yaml_parent("hybrid") is None
     cfg = compose_tracker("hybrid")
     assert "_target_" not in cfg.apf and "name" not in cfg.apf and "_target_" not in cfg.local
-    assert set(own) <= {*NOT_SETTINGS}
 
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
@@ -116,7 +102,7 @@ def test_every_key_is_overridable_without_plus(name, body, rig):
     """Every leaf of the settings tree is in the composed config; one override per leaf kind
     (a number, a list, a nested key) composes without ``+`` and reaches the settings."""
     cfg = compose_tracker(name)
-    tree = settings_to_mapping(PRESETS[name].settings)
+    tree = settings_to_mapping(PRESETS[name])
     for key, _ in leaves(tree):
         node = cfg
         for part in key.split("."):
@@ -153,7 +139,7 @@ def test_python_overrides_and_config_overrides_give_the_same_settings(body, rig)
 
 
 def test_presets_are_the_settings_with_their_differences():
-    apf, x25, prior = (PRESETS[n].settings for n in ("apf", "apf_25x10", "apf_prior"))
+    apf, x25, prior = (PRESETS[n] for n in ("apf", "apf_25x10", "apf_prior"))
     assert (x25.particles, x25.layers) == (25, 10) and x25.energy == apf.energy
     assert dataclasses.replace(x25, particles=apf.particles, layers=apf.layers) == apf
     assert dataclasses.replace(prior, energy=x25.energy) == x25 and prior.energy.prior == 1.0
@@ -205,7 +191,7 @@ def test_bad_values_fail_before_work_through_every_entrance(body, rig):
     with pytest.raises(ValueError, match=r"unknown setting 'apf\.partcles'"):
         mocap.track(seq, "hybrid", body=body, apf={"partcles": 5})
     with pytest.raises(ValueError, match=r"unknown setting 'partcles'"):
-        factory.make_apf_tracker(body=body, rig=rig, rng=np.random.default_rng(0), partcles=5)
+        make_tracker("apf", body=body, rig=rig, rng=np.random.default_rng(0), partcles=5)
     cfg = compose_tracker("hybrid", ["tracker.apf.restart=2"])
     with pytest.raises(Exception, match=r"apf\.restart = 2 is out of range \(allowed: \[0, 1\]\)"):
         build(cfg, body, rig)
@@ -213,12 +199,11 @@ def test_bad_values_fail_before_work_through_every_entrance(body, rig):
         preset_settings("nope")
 
 
-def test_the_factories_write_no_default_but_the_name():
-    for make in (factory.make_apf_tracker, factory.make_local_tracker, factory.make_hybrid_tracker,
-                 factory.make_marker_tracker):
-        params = inspect.signature(make).parameters
-        assert [p for p in params.values() if p.default is not inspect.Parameter.empty] == [params["name"]]
-        assert [p.name for p in params.values() if p.kind is p.KEYWORD_ONLY] == ["body", "rig", "rng", "name"]
+def test_one_builder_per_settings_class_and_no_keyword_factories():
+    assert set(factory.BUILDERS) == set(SETTINGS_CLASSES.values())
+    assert not [n for n in vars(factory) if n.startswith("make_") and n != "make_pose_prior"]
+    with pytest.raises(TypeError, match="no tracker is built from PriorSettings"):
+        factory.build_tracker(None, None, None, PriorSettings(), "x")
 
 
 def test_prior_source_selects_the_prior_file(body):

@@ -15,7 +15,7 @@ Offsets that a change of pose can mimic (the hips and the mid-hip all higher: th
 higher or tilted) cannot be told apart from the pose by the detections alone: the tracker's pose
 absorbs them before they are learned. A **detector profile** is the prior knowledge that tells
 them apart: the mean offsets of a detector's keypoints from the anatomical joints, calibrated
-on data with ground truth (:data:`PROFILES`, in the keypoint frames of
+on data with ground truth (:data:`~mocap.trackers.markers.settings.PROFILES`, in the keypoint frames of
 :func:`mocap.data.detector_semantics.keypoint_frames`). With a profile (the marker tracker's
 ``keypoint_profile``) the start-up removes the profile's offsets from the triangulated
 keypoints before it fits the shape and pose (:func:`remove_profile`), tracking starts with the
@@ -30,19 +30,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from mocap.data.detector_semantics import keypoint_frames, local_offsets
+from mocap.trackers.markers.settings import PROFILES  # noqa: F401  (re-exported)
 from mocap.trackers.tracker_settings import OffsetLearning
-
-#: detector profiles: keypoint type -> mean (out, forward, up) offset in mm (module docstring).
-#: ``realistic_sim``: the simulated detector of ``data.detections.semantics=realistic``, calibrated
-#: on the real-motion DEV split and data/mismatch (8 views, seeds 0-2): the mean of robust
-#: triangulations of its detections against the ground-truth joints
-#: (``python experiments/detector_semantics.py --calibrate``)
-PROFILES: dict[str, dict[str, tuple[float, float, float]]] = {
-    "realistic_sim": {"mid_hip": (-1.0, 4.0, 44.0), "neck_base": (-1.0, 13.0, 18.0),
-                      "head_centre": (-1.0, 26.0, 10.0), "shoulder": (12.0, -8.0, 22.0),
-                      "elbow": (8.0, -13.0, 0.0), "wrist": (-1.0, 8.0, -6.0), "hip": (21.0, 5.0, 45.0),
-                      "knee": (-1.0, 18.0, 1.0), "ankle": (4.0, -4.0, -12.0)},
-}
 
 
 def local_residuals(transforms: np.ndarray, points: np.ndarray, rest: np.ndarray) -> np.ndarray:

@@ -19,40 +19,12 @@ estimate where the detections say little; joint limits are enforced by clipping.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from mocap.cameras import Rig
 from mocap.energy.markers import HAVE_NUMBA, MarkerObservation, associate, pinhole_project
-from mocap.settings import check
-
-
-@dataclass(frozen=True)
-class Refinement:
-    """iterations: 0 disables; gate_px: association radius (None: the likelihood's gate);
-    huber_px: robust scale; prior_std: per-DOF prior width around the APF estimate;
-    use_confidence: weight residuals by detection confidence; outlier_views: down-weight a
-    view whose median residual exceeds this many times the views' median (0: off); step:
-    finite difference."""
-
-    iterations: int = 3
-    gate_px: float | None = None
-    huber_px: float = 4.0
-    prior_std: float = 0.1
-    use_confidence: bool = True
-    outlier_views: float = 0.0
-    step: float = 1e-4
-    damping: float = 1e-3
-
-    def __post_init__(self) -> None:
-        check(self, "iterations", self.iterations >= 0, "an integer >= 0 (0: off)")
-        check(self, "gate_px", self.gate_px is None or self.gate_px > 0, "null or > 0 px")
-        check(self, "huber_px", self.huber_px > 0, "> 0 px")
-        check(self, "prior_std", self.prior_std > 0, "> 0")
-        check(self, "outlier_views", self.outlier_views == 0 or self.outlier_views > 1, "0 (off) or > 1")
-        check(self, "step", self.step > 0, "> 0")
-        check(self, "damping", self.damping >= 0, ">= 0")
+from mocap.trackers.markers.settings import Refinement  # noqa: F401  (re-exported: its settings)
 
 
 def refine_pose(points: Callable[[np.ndarray], np.ndarray], chi0: np.ndarray, obs: MarkerObservation,

@@ -1,19 +1,55 @@
 """The marker tracker's settings (``marker_apf``): one frozen dataclass, the only place its
 defaults are written, with nested settings for the start-up (:class:`MarkerInit`), the
-per-frame refinement (:class:`~mocap.trackers.markers.refine.Refinement`) and the learned
+per-frame refinement (:class:`Refinement`, used by :mod:`mocap.trackers.markers.refine`) and the learned
 keypoint offsets (:class:`~mocap.trackers.markers.offsets.OffsetLearning`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from mocap.energy.markers import MarkerLikelihood
+from mocap.energy.marker_likelihood import MarkerLikelihood
 from mocap.settings import check, fields_of
-from mocap.trackers.markers.offsets import PROFILES
-from mocap.trackers.markers.refine import Refinement
 from mocap.trackers.tracker_settings import APFSettings, OffsetLearning
+
+#: detector profiles: keypoint type -> mean (out, forward, up) offset in mm
+#: (:mod:`mocap.trackers.markers.offsets` explains them).
+#: ``realistic_sim``: the simulated detector of ``data.detections.semantics=realistic``, calibrated
+#: on the real-motion DEV split and data/mismatch (8 views, seeds 0-2): the mean of robust
+#: triangulations of its detections against the ground-truth joints
+#: (``python experiments/detector_semantics.py --calibrate``)
+PROFILES: dict[str, dict[str, tuple[float, float, float]]] = {
+    "realistic_sim": {"mid_hip": (-1.0, 4.0, 44.0), "neck_base": (-1.0, 13.0, 18.0),
+                      "head_centre": (-1.0, 26.0, 10.0), "shoulder": (12.0, -8.0, 22.0),
+                      "elbow": (8.0, -13.0, 0.0), "wrist": (-1.0, 8.0, -6.0), "hip": (21.0, 5.0, 45.0),
+                      "knee": (-1.0, 18.0, 1.0), "ankle": (4.0, -4.0, -12.0)},
+}
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """iterations: 0 disables; gate_px: association radius (None: the likelihood's gate);
+    huber_px: robust scale; prior_std: per-DOF prior width around the APF estimate;
+    use_confidence: weight residuals by detection confidence; outlier_views: down-weight a
+    view whose median residual exceeds this many times the views' median (0: off); step:
+    finite difference."""
+
+    iterations: int = 3
+    gate_px: float | None = None
+    huber_px: float = 4.0
+    prior_std: float = 0.1
+    use_confidence: bool = True
+    outlier_views: float = 0.0
+    step: float = 1e-4
+    damping: float = 1e-3
+
+    def __post_init__(self) -> None:
+        check(self, "iterations", self.iterations >= 0, "an integer >= 0 (0: off)")
+        check(self, "gate_px", self.gate_px is None or self.gate_px > 0, "null or > 0 px")
+        check(self, "huber_px", self.huber_px > 0, "> 0 px")
+        check(self, "prior_std", self.prior_std > 0, "> 0")
+        check(self, "outlier_views", self.outlier_views == 0 or self.outlier_views > 1, "0 (off) or > 1")
+        check(self, "step", self.step > 0, "> 0")
+        check(self, "damping", self.damping >= 0, ">= 0")
 
 
 @dataclass(frozen=True)
@@ -115,9 +151,11 @@ class MarkerSettings(APFSettings):
         """The annealing search alone."""
         return APFSettings(**fields_of(self, APFSettings))
 
-    def likelihood(self, image_sizes: np.ndarray) -> MarkerLikelihood:
+    def likelihood(self, image_sizes) -> MarkerLikelihood:
         """The likelihood for cameras of ``image_sizes`` (C, 2) px: the gate in pixels is
-        ``gate`` times the mean image diagonal."""
+        ``gate`` times the mean image diagonal (numpy imported here: the settings import none)."""
+        import numpy as np
+
         diagonal = float(np.hypot(*np.asarray(image_sizes, np.float64).mean(axis=0)))
         return MarkerLikelihood(gate_px=self.gate * diagonal, min_views=self.min_views,
                                 coherence_radius=self.coherence_radius,
