@@ -1,0 +1,320 @@
+"""Several people per view with a one-person pose model: find people by searching the image
+again with the people already found blacked out, then follow each one with the pose model run
+on a crop around its previous keypoints (the other people's previous masks blacked out in the
+crop), and keep per-view person ids over time by box overlap.
+
+    detector = PeopleDetector(PeopleSettings(people=2))     # or people=None: everyone (auto)
+    found = detector(rgb)                                   # rgb (H, W, 3) uint8, one view's frames in order
+    found[0].id, found[0].keypoints, found[0].mask          # (33, 3) image pixels, (H, W) probability
+    detector.close()
+
+BlazePose (the model shipped in the mediapipe wheel, :mod:`mocap.video.detector`) returns one
+person per image: the one its person detector scores highest. Black out that person (its mask
+and its keypoints' box) and the next-best person is found, until none is left or enough are
+found. This needs no other model and no other package. The cross-view association of the
+per-view people is the several-people tracker's job (``tracker=marker_people``);
+:func:`group_views` associates them per frame for the left/right check only.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mocap.video.detector import NUM_KEYPOINTS, DetectorSettings, _import_mediapipe
+
+#: the value of ``people`` that means "everyone found" (capped by PeopleSettings.max_people)
+AUTO = "auto"
+
+
+def parse_people(value: object, where: str = "people") -> int | None:
+    """``people`` as given (an int >= 1, a digit string, or "auto") -> an int, or None for
+    auto. Raises ValueError naming ``where`` and the value."""
+    given = value
+    if isinstance(value, str):
+        text = value.strip().lower()
+        if text == AUTO:
+            return None
+        if text.lstrip("+").isdigit():
+            value = int(text)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{where} must be a whole number >= 1 or 'auto', got {given!r}")
+    return int(value)
+
+
+@dataclass(frozen=True)
+class PeopleSettings:
+    people: int | None = 1               # people per view to follow; None: everyone found (auto)
+    max_people: int = 8                  # auto: at most this many per view
+    search_every: int = 10               # frames between searches for more people (while fewer than wanted)
+    min_keypoints: int = 8               # keypoints with confidence >= min_confidence for a person to count
+    min_confidence: float = 0.5
+    margin: float = 0.3                  # crop: the last keypoints' box grown by this x its size per side
+    lost_after: int = 15                 # frames a person may go unseen before its id is retired
+    same_iou: float = 0.5                # two followed boxes overlapping more: one person (one is dropped)
+    new_iou: float = 0.3                 # a search's find overlapping a followed person more is that person
+    detector: DetectorSettings = field(default_factory=DetectorSettings)
+
+    def __post_init__(self):
+        if self.people is not None:
+            parse_people(self.people)
+        for name in ("max_people", "search_every", "min_keypoints", "lost_after"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"people settings {name} must be >= 1, got {getattr(self, name)!r}")
+
+    @property
+    def wanted(self) -> int:
+        return self.max_people if self.people is None else self.people
+
+
+@dataclass(frozen=True)
+class Person:
+    """One person in one image: per-view id (stable over the view's frames), keypoints
+    (33, 3) x, y in pixels of the image (pixel centres), confidence; mask (H, W) float32
+    person probability (zeros without the segmentation head)."""
+
+    id: int
+    keypoints: np.ndarray
+    mask: np.ndarray
+
+
+def keypoint_boxes(kp: np.ndarray, min_confidence: float = 0.5) -> np.ndarray:
+    """(..., K, 3) keypoints -> (..., 4) boxes x0, y0, x1, y1 of those with confidence >=
+    ``min_confidence`` (all NaN where none is)."""
+    ok = kp[..., 2] >= min_confidence
+    x = np.where(ok, kp[..., 0], np.nan)
+    y = np.where(ok, kp[..., 1], np.nan)
+    with np.errstate(all="ignore"), _quiet_nan():
+        return np.stack([np.nanmin(x, -1), np.nanmin(y, -1), np.nanmax(x, -1), np.nanmax(y, -1)], -1)
+
+
+@contextlib.contextmanager
+def _quiet_nan():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
+
+
+def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, 4), (M, 4) boxes x0, y0, x1, y1 -> (N, M) intersection over union (0 where NaN)."""
+    a, b = np.asarray(a, float)[:, None], np.asarray(b, float)[None]
+    w = np.clip(np.minimum(a[..., 2], b[..., 2]) - np.maximum(a[..., 0], b[..., 0]), 0, None)
+    h = np.clip(np.minimum(a[..., 3], b[..., 3]) - np.maximum(a[..., 1], b[..., 1]), 0, None)
+    inter = w * h
+    area = lambda q: (q[..., 2] - q[..., 0]) * (q[..., 3] - q[..., 1])      # noqa: E731
+    with np.errstate(all="ignore"):
+        out = inter / (area(a) + area(b) - inter)
+    return np.nan_to_num(out, nan=0.0)
+
+
+def crop_box(box: np.ndarray, margin: float, width: int, height: int) -> tuple[int, int, int, int]:
+    """Integer crop x0, y0, x1, y1 (exclusive) around ``box``: grown by ``margin`` x its size
+    per side, then to a square (BlazePose's detector works on square inputs) clipped to the image."""
+    x0, y0, x1, y1 = box
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    side = max(x1 - x0, y1 - y0) * (1 + 2 * margin)
+    half = max(side / 2, 16.0)
+    return (int(max(0, np.floor(cx - half))), int(max(0, np.floor(cy - half))),
+            int(min(width, np.ceil(cx + half))), int(min(height, np.ceil(cy + half))))
+
+
+def black_out(rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray], grow: float = 0.1
+              ) -> np.ndarray:
+    """A copy of ``rgb`` with each mask (probability >= 0.5) and each box (grown by ``grow`` x
+    its size per side) set to black: the people already found, hidden from the next search."""
+    out = rgb.copy()
+    H, W = rgb.shape[:2]
+    for m in masks:
+        out[m >= 0.5] = 0
+    for b in boxes:
+        if not np.all(np.isfinite(b)):
+            continue
+        gw, gh = grow * (b[2] - b[0]), grow * (b[3] - b[1])
+        x0, y0 = int(max(0, b[0] - gw)), int(max(0, b[1] - gh))
+        x1, y1 = int(min(W, b[2] + gw + 1)), int(min(H, b[3] + gh + 1))
+        out[y0:y1, x0:x1] = 0
+    return out
+
+
+PoseFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None]
+
+
+def mediapipe_pose(settings: DetectorSettings) -> tuple[PoseFn, Callable[[], None]]:
+    """BlazePose in single-image mode (its person detector runs on every call) as a function
+    rgb (h, w, 3) uint8 -> ((33, 3) keypoints in pixels, (h, w) mask) or None; and its closer."""
+    mp_pose = _import_mediapipe()
+    with contextlib.redirect_stderr(io.StringIO()):
+        pose = mp_pose.Pose(static_image_mode=True, model_complexity=settings.model_complexity,
+                            enable_segmentation=settings.segmentation,
+                            min_detection_confidence=settings.min_detection_confidence)
+
+    def run(rgb: np.ndarray):
+        h, w = rgb.shape[:2]
+        res = pose.process(np.ascontiguousarray(rgb))
+        if res.pose_landmarks is None:
+            return None
+        kp = np.array([(p.x, p.y, p.visibility) for p in res.pose_landmarks.landmark], np.float64)
+        kp[:, 0] = kp[:, 0] * w - 0.5
+        kp[:, 1] = kp[:, 1] * h - 0.5
+        kp[:, 2] = np.clip(kp[:, 2], 1e-3, 1.0)
+        mask = (np.zeros((h, w), np.float32) if res.segmentation_mask is None
+                else np.asarray(res.segmentation_mask, np.float32).reshape(h, w))
+        return kp, mask
+
+    return run, pose.close
+
+
+@dataclass
+class _Track:
+    id: int
+    keypoints: np.ndarray           # last seen (33, 3)
+    mask: np.ndarray                # last seen (H, W)
+    missed: int = 0
+
+
+class PeopleDetector:
+    """Several people in one view's frames, in order (see the module's docstring).
+
+    pose: a function rgb -> (keypoints, mask) | None (default: BlazePose single-image mode);
+    the tests give a stand-in. Ids start at 0 and are never reused within the view."""
+
+    def __init__(self, settings: PeopleSettings | None = None, pose: PoseFn | None = None):
+        self.settings = settings or PeopleSettings()
+        self._close = None
+        if pose is None:
+            pose, self._close = mediapipe_pose(self.settings.detector)
+        self.pose = pose
+        self.tracks: list[_Track] = []
+        self.frame = 0
+        self._next_id = 0
+
+    # -- one call of the pose model, in full-image pixels --------------------------------------
+    def _pose_in(self, rgb: np.ndarray, crop: tuple[int, int, int, int] | None):
+        H, W = rgb.shape[:2]
+        x0, y0, x1, y1 = crop if crop is not None else (0, 0, W, H)
+        if x1 - x0 < 8 or y1 - y0 < 8:
+            return None
+        got = self.pose(np.ascontiguousarray(rgb[y0:y1, x0:x1]))
+        if got is None:
+            return None
+        kp, m = got
+        if (kp[:, 2] >= self.settings.min_confidence).sum() < self.settings.min_keypoints:
+            return None
+        kp = kp.copy()
+        kp[:, 0] += x0
+        kp[:, 1] += y0
+        mask = np.zeros((H, W), np.float32)
+        mask[y0:y1, x0:x1] = m
+        return kp, mask
+
+    def search(self, rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray], count: int
+               ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Up to ``count`` people not yet found: the pose model on the whole image, the
+        people found so far (``masks``, ``boxes``, and each new find) blacked out."""
+        found = []
+        masks, boxes = list(masks), list(boxes)
+        for _ in range(count):
+            got = self._pose_in(black_out(rgb, masks, boxes), None)
+            if got is None:
+                break
+            found.append(got)
+            masks.append(got[1])
+            boxes.append(keypoint_boxes(got[0], self.settings.min_confidence))
+        return found
+
+    def __call__(self, rgb: np.ndarray) -> list[Person]:
+        s = self.settings
+        H, W = rgb.shape[:2]
+        new: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        for t in self.tracks:                    # follow each person in a crop around its last keypoints
+            box = keypoint_boxes(t.keypoints, s.min_confidence)
+            grow = s.margin * (1 + 0.5 * t.missed)
+            others = [o.mask * (t.mask < 0.5) for o in self.tracks if o is not t]
+            got = self._pose_in(black_out(rgb, others, []), crop_box(box, grow, W, H))
+            if got is not None:
+                new[t.id] = got
+        self._drop_duplicates(new)
+        wanted = s.wanted - len(new)
+        due = not self.tracks or self.frame % s.search_every == 0 or any(t.id not in new for t in self.tracks)
+        if wanted > 0 and due:
+            kept = list(new.values())
+            finds = self.search(rgb, [m for _, m in kept],
+                                [keypoint_boxes(k, s.min_confidence) for k, _ in kept], wanted)
+            for kp, mask in finds:
+                self._attach(kp, mask, new)
+        for t in self.tracks:
+            if t.id in new:
+                t.keypoints, t.mask = new[t.id]
+                t.missed = 0
+            else:
+                t.missed += 1
+        if s.people is None:                 # a fixed number: ids wait to be found again, never retired
+            self.tracks = [t for t in self.tracks if t.missed <= s.lost_after]
+        self.frame += 1
+        return [Person(i, *new[i]) for i in sorted(new)]
+
+    def _drop_duplicates(self, new: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
+        """Two followed people on the same body: keep the one whose new box overlaps its own
+        previous box more (the other lost it this frame)."""
+        ids = sorted(new)
+        if len(ids) < 2:
+            return
+        s = self.settings
+        last = {t.id: keypoint_boxes(t.keypoints, s.min_confidence) for t in self.tracks}
+        boxes = np.stack([keypoint_boxes(new[i][0], s.min_confidence) for i in ids])
+        iou = box_iou(boxes, boxes)
+        stay = {i: box_iou(boxes[[k]], last[i][None])[0, 0] for k, i in enumerate(ids)}
+        for a in range(len(ids)):
+            for b in range(a + 1, len(ids)):
+                ia, ib = ids[a], ids[b]
+                if ia in new and ib in new and iou[a, b] > s.same_iou:
+                    del new[ib if stay[ia] >= stay[ib] else ia]
+
+    def _attach(self, kp: np.ndarray, mask: np.ndarray, new: dict) -> None:
+        """A search's find: a lost person back (its last box overlaps most; with a fixed number
+        of people all taken, the lost one whose last box is nearest), or a new id."""
+        s = self.settings
+        box = keypoint_boxes(kp, s.min_confidence)[None]
+        if new and box_iou(box, np.stack([keypoint_boxes(k, s.min_confidence) for k, _ in new.values()])
+                           ).max() > s.new_iou:
+            return
+        lost = [t for t in self.tracks if t.id not in new]
+        if lost:
+            iou = box_iou(box, np.stack([keypoint_boxes(t.keypoints, s.min_confidence) for t in lost]))[0]
+            k = int(np.argmax(iou))
+            if iou[k] > s.new_iou:
+                new[lost[k].id] = (kp, mask)
+                return
+            if s.people is not None and len(self.tracks) >= s.people:
+                centre = lambda b: np.array([b[0] + b[2], b[1] + b[3]]) / 2      # noqa: E731
+                far = [np.linalg.norm(centre(box[0]) - centre(keypoint_boxes(t.keypoints, s.min_confidence)))
+                       for t in lost]
+                new[lost[int(np.argmin(far))].id] = (kp, mask)
+                return
+        if len(self.tracks) >= s.wanted:
+            return
+        tid = self._next_id
+        self._next_id += 1
+        self.tracks.append(_Track(tid, kp, mask, missed=0))
+        new[tid] = (kp, mask)
+
+    def close(self) -> None:
+        if self._close is not None:
+            self._close()
+            self._close = None
+
+    def __enter__(self) -> PeopleDetector:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+__all__ = ["AUTO", "NUM_KEYPOINTS", "PeopleDetector", "PeopleSettings", "Person", "box_iou", "crop_box",
+           "keypoint_boxes", "parse_people"]
