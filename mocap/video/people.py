@@ -23,6 +23,7 @@ import io
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from mocap.video.detector import NUM_KEYPOINTS, DetectorSettings, _import_mediapipe
@@ -55,8 +56,8 @@ class PeopleSettings:
     min_confidence: float = 0.5
     margin: float = 0.3                  # crop: the last keypoints' box grown by this x its size per side
     lost_after: int = 15                 # frames a person may go unseen before its id is retired
-    same_iou: float = 0.5                # two followed boxes overlapping more: one person (one is dropped)
-    new_iou: float = 0.3                 # a search's find overlapping a followed person more is that person
+    same_distance: float = 0.15          # keypoints this close (median, x the person's height): one person
+    new_iou: float = 0.3                 # a find overlapping a lost person's last box more: that person
     detector: DetectorSettings = field(default_factory=DetectorSettings)
 
     def __post_init__(self):
@@ -101,6 +102,20 @@ def _quiet_nan():
         yield
 
 
+def keypoint_distance(a: np.ndarray, b: np.ndarray, min_confidence: float = 0.5) -> np.ndarray:
+    """(N, K, 3), (M, K, 3) -> (N, M): median distance between the same keypoints (those with
+    confidence >= ``min_confidence`` in both), divided by the mean of the two people's
+    keypoint heights; inf where fewer than 3 keypoints are shared. Two finds of one body are
+    near 0 however much two people's boxes overlap."""
+    ok = (a[:, None, :, 2] >= min_confidence) & (b[None, :, :, 2] >= min_confidence)       # (N, M, K)
+    d = np.linalg.norm(a[:, None, :, :2] - b[None, :, :, :2], axis=-1)
+    ha = np.diff(keypoint_boxes(a, min_confidence)[:, [1, 3]], axis=1)[:, 0]
+    hb = np.diff(keypoint_boxes(b, min_confidence)[:, [1, 3]], axis=1)[:, 0]
+    with np.errstate(all="ignore"), _quiet_nan():
+        med = np.nanmedian(np.where(ok, d, np.nan), axis=-1) / ((ha[:, None] + hb[None]) / 2)
+    return np.where((ok.sum(-1) >= 3) & np.isfinite(med), med, np.inf)
+
+
 def box_iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(N, 4), (M, 4) boxes x0, y0, x1, y1 -> (N, M) intersection over union (0 where NaN)."""
     a, b = np.asarray(a, float)[:, None], np.asarray(b, float)[None]
@@ -126,12 +141,19 @@ def crop_box(box: np.ndarray, margin: float, width: int, height: int) -> tuple[i
 
 def black_out(rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray], grow: float = 0.1
               ) -> np.ndarray:
-    """A copy of ``rgb`` with each mask (probability >= 0.5) and each box (grown by ``grow`` x
-    its size per side) set to black: the people already found, hidden from the next search."""
+    """A copy of ``rgb`` with the people already found hidden from the next search: each
+    mask (probability >= 0.5, dilated by 1 % of the image) filled with a heavily blurred copy
+    of the image (black would leave a person-shaped silhouette that the person detector
+    finds again), each box (grown by ``grow`` x its size per side) set to black."""
     out = rgb.copy()
     H, W = rgb.shape[:2]
-    for m in masks:
-        out[m >= 0.5] = 0
+    if masks:
+        hide = np.any([m >= 0.5 for m in masks], axis=0).astype(np.uint8)
+        grow = max(3, int(0.01 * max(H, W))) | 1
+        hide = cv2.dilate(hide, np.ones((grow, grow), np.uint8)).astype(bool)
+        small = cv2.resize(rgb, (max(1, W // 16), max(1, H // 16)), interpolation=cv2.INTER_AREA)
+        fill = cv2.resize(cv2.GaussianBlur(small, (0, 0), 2), (W, H), interpolation=cv2.INTER_LINEAR)
+        out[hide] = fill[hide]
     for b in boxes:
         if not np.all(np.isfinite(b)):
             continue
@@ -213,19 +235,29 @@ class PeopleDetector:
         mask[y0:y1, x0:x1] = m
         return kp, mask
 
-    def search(self, rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray], count: int
+    def search(self, rgb: np.ndarray, masks: list[np.ndarray], known: list[np.ndarray], count: int
                ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Up to ``count`` people not yet found: the pose model on the whole image, the
-        people found so far (``masks``, ``boxes``, and each new find) blacked out."""
+        """Up to ``count`` people not yet found: the pose model on the whole image with the
+        masks of the people found so far (``masks`` with keypoints ``known``, and each new
+        find) blacked out; a find on one of them (keypoints within ``same_distance``: the rest
+        of a person its mask missed) has its box blacked out too and the search goes on. Only
+        masks are blacked out first, not boxes: a box would hide a person standing behind."""
+        s = self.settings
         found = []
-        masks, boxes = list(masks), list(boxes)
-        for _ in range(count):
-            got = self._pose_in(black_out(rgb, masks, boxes), None)
+        masks, known, hidden = list(masks), list(known), []
+        for _ in range(count + len(known) + 1):
+            if len(found) == count:
+                break
+            got = self._pose_in(black_out(rgb, masks, hidden), None)
             if got is None:
                 break
+            near = keypoint_distance(got[0][None], np.stack(known), s.min_confidence) if known else None
+            if near is not None and near.min() < s.same_distance:
+                hidden.append(keypoint_boxes(got[0], s.min_confidence))
+                continue                # the rest of someone found already: hidden, search again
             found.append(got)
             masks.append(got[1])
-            boxes.append(keypoint_boxes(got[0], self.settings.min_confidence))
+            known.append(got[0])
         return found
 
     def __call__(self, rgb: np.ndarray) -> list[Person]:
@@ -244,8 +276,7 @@ class PeopleDetector:
         due = not self.tracks or self.frame % s.search_every == 0 or any(t.id not in new for t in self.tracks)
         if wanted > 0 and due:
             kept = list(new.values())
-            finds = self.search(rgb, [m for _, m in kept],
-                                [keypoint_boxes(k, s.min_confidence) for k, _ in kept], wanted)
+            finds = self.search(rgb, [m for _, m in kept], [k for k, _ in kept], wanted)
             for kp, mask in finds:
                 self._attach(kp, mask, new)
         for t in self.tracks:
@@ -260,29 +291,31 @@ class PeopleDetector:
         return [Person(i, *new[i]) for i in sorted(new)]
 
     def _drop_duplicates(self, new: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
-        """Two followed people on the same body: keep the one whose new box overlaps its own
-        previous box more (the other lost it this frame)."""
+        """Two followed people on the same body (keypoints within ``same_distance``): keep
+        the one whose keypoints moved less from its own previous ones (the other lost its
+        person this frame)."""
         ids = sorted(new)
         if len(ids) < 2:
             return
         s = self.settings
-        last = {t.id: keypoint_boxes(t.keypoints, s.min_confidence) for t in self.tracks}
-        boxes = np.stack([keypoint_boxes(new[i][0], s.min_confidence) for i in ids])
-        iou = box_iou(boxes, boxes)
-        stay = {i: box_iou(boxes[[k]], last[i][None])[0, 0] for k, i in enumerate(ids)}
+        last = {t.id: t.keypoints for t in self.tracks}
+        kps = np.stack([new[i][0] for i in ids])
+        same = keypoint_distance(kps, kps, s.min_confidence)
+        moved = {i: keypoint_distance(kps[[k]], last[i][None], s.min_confidence)[0, 0]
+                 for k, i in enumerate(ids)}
         for a in range(len(ids)):
             for b in range(a + 1, len(ids)):
                 ia, ib = ids[a], ids[b]
-                if ia in new and ib in new and iou[a, b] > s.same_iou:
-                    del new[ib if stay[ia] >= stay[ib] else ia]
+                if ia in new and ib in new and same[a, b] < s.same_distance:
+                    del new[ib if moved[ia] <= moved[ib] else ia]
 
     def _attach(self, kp: np.ndarray, mask: np.ndarray, new: dict) -> None:
         """A search's find: a lost person back (its last box overlaps most; with a fixed number
         of people all taken, the lost one whose last box is nearest), or a new id."""
         s = self.settings
         box = keypoint_boxes(kp, s.min_confidence)[None]
-        if new and box_iou(box, np.stack([keypoint_boxes(k, s.min_confidence) for k, _ in new.values()])
-                           ).max() > s.new_iou:
+        if new and keypoint_distance(kp[None], np.stack([k for k, _ in new.values()]),
+                                     s.min_confidence).min() < s.same_distance:
             return
         lost = [t for t in self.tracks if t.id not in new]
         if lost:
@@ -317,4 +350,4 @@ class PeopleDetector:
 
 
 __all__ = ["AUTO", "NUM_KEYPOINTS", "PeopleDetector", "PeopleSettings", "Person", "box_iou", "crop_box",
-           "keypoint_boxes", "parse_people"]
+           "keypoint_boxes", "keypoint_distance", "parse_people"]

@@ -36,8 +36,9 @@ SHARED = Path(os.environ.get("MOCAP_SHARED_DATA",
 # --- a stand-in one-person model: the largest bright blob ---------------------------------------
 
 def blob_pose(rgb: np.ndarray):
-    """(33, 3) keypoints spread over the largest non-black blob's box (a 3 x 11 grid), its mask."""
-    fg = (rgb.max(axis=2) > 0).astype(np.uint8)
+    """(33, 3) keypoints spread over the largest blob of person-grey (200) pixels' box (a
+    3 x 11 grid), its mask. The blurred fill that hides found people is darker."""
+    fg = (rgb.max(axis=2) > 190).astype(np.uint8)
     n, lab, stats, _ = cv2.connectedComponentsWithStats(fg)
     if n < 2:
         return None
