@@ -51,7 +51,7 @@ def parse_people(value: object, where: str = "people") -> int | None:
 class PeopleSettings:
     people: int | None = 1               # people per view to follow; None: everyone found (auto)
     max_people: int = 8                  # auto: at most this many per view
-    search_every: int = 10               # frames between searches for more people (while fewer than wanted)
+    search_every: int = 10               # auto: frames between searches for more people
     min_keypoints: int = 8               # keypoints with confidence >= min_confidence for a person to count
     min_confidence: float = 0.5
     margin: float = 0.3                  # crop: the last keypoints' box grown by this x its size per side
@@ -149,8 +149,8 @@ def black_out(rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray],
     H, W = rgb.shape[:2]
     if masks:
         hide = np.any([m >= 0.5 for m in masks], axis=0).astype(np.uint8)
-        grow = max(3, int(0.01 * max(H, W))) | 1
-        hide = cv2.dilate(hide, np.ones((grow, grow), np.uint8)).astype(bool)
+        size = max(3, int(0.01 * max(H, W))) | 1
+        hide = cv2.dilate(hide, np.ones((size, size), np.uint8)).astype(bool)
         small = cv2.resize(rgb, (max(1, W // 16), max(1, H // 16)), interpolation=cv2.INTER_AREA)
         fill = cv2.resize(cv2.GaussianBlur(small, (0, 0), 2), (W, H), interpolation=cv2.INTER_LINEAR)
         out[hide] = fill[hide]
@@ -241,16 +241,24 @@ class PeopleDetector:
         masks of the people found so far (``masks`` with keypoints ``known``, and each new
         find) blacked out; a find on one of them (keypoints within ``same_distance``: the rest
         of a person its mask missed) has its box blacked out too and the search goes on. Only
-        masks are blacked out first, not boxes: a box would hide a person standing behind."""
+        masks are hidden first, not boxes (a box would hide a person standing behind); when
+        nothing more is found so, the found people's boxes are blacked out too and the search
+        goes on (BlazePose returns only its best candidate, which may be a blurred body that
+        its landmark model then rejects)."""
         s = self.settings
         found = []
         masks, known, hidden = list(masks), list(known), []
-        for _ in range(count + len(known) + 1):
+        boxes_too = False
+        for _ in range(count + len(known) + 2):
             if len(found) == count:
                 break
-            got = self._pose_in(black_out(rgb, masks, hidden), None)
+            boxes = [keypoint_boxes(k, s.min_confidence) for k in known] if boxes_too else []
+            got = self._pose_in(black_out(rgb, masks, hidden + boxes), None)
             if got is None:
-                break
+                if boxes_too or not known:
+                    break
+                boxes_too = True        # the blurred bodies may still draw the detector: hide their boxes
+                continue
             near = keypoint_distance(got[0][None], np.stack(known), s.min_confidence) if known else None
             if near is not None and near.min() < s.same_distance:
                 hidden.append(keypoint_boxes(got[0], s.min_confidence))
@@ -273,7 +281,9 @@ class PeopleDetector:
                 new[t.id] = got
         self._drop_duplicates(new)
         wanted = s.wanted - len(new)
-        due = not self.tracks or self.frame % s.search_every == 0 or any(t.id not in new for t in self.tracks)
+        missing = any(t.id not in new for t in self.tracks)
+        due = (not self.tracks or self.frame % s.search_every == 0 or missing
+               or (s.people is not None and len(self.tracks) < s.people))
         if wanted > 0 and due:
             kept = list(new.values())
             finds = self.search(rgb, [m for _, m in kept], [k for k, _ in kept], wanted)

@@ -22,7 +22,16 @@ from mocap.cameras import project, rig_from_config, triangulate
 from mocap.data.openpose import load_openpose_sequence
 from mocap.video.detect import MIRROR, left_right_fixes
 from mocap.video.detector import detector_available
-from mocap.video.people import PeopleDetector, PeopleSettings, box_iou, crop_box, keypoint_boxes, parse_people
+from mocap.video.people import (
+    PeopleDetector,
+    PeopleSettings,
+    black_out,
+    box_iou,
+    crop_box,
+    keypoint_boxes,
+    keypoint_distance,
+    parse_people,
+)
 from mocap.video.people_views import group_views
 from mocap_cli.main import main as cli
 from tests.video.test_detect import stick_figure_keypoints
@@ -65,6 +74,32 @@ def test_box_iou_and_crop_against_hand_computed_values():
     assert crop_box(np.array([0, 0, 20, 40]), 0.25, 100, 200) == (0, 0, 40, 50)     # clipped at the edges
     kp = np.array([[1, 2, 0.9], [5, 9, 0.8], [100, 100, 0.1]])
     assert np.array_equal(keypoint_boxes(kp, 0.5), [1, 2, 5, 9])              # the low one left out
+
+
+def test_keypoint_distance_is_the_median_shift_over_the_height_whatever_the_boxes_overlap():
+    a = np.zeros((33, 3))
+    a[:, 0], a[:, 1], a[:, 2] = 50, np.linspace(0, 100, 33), 0.9          # 100 px tall
+    b = a.copy()
+    b[:, 0] += 10                                                          # same box size, 10 px right
+    b[10:13, 2] = 0.1                                                      # three not shared
+    d = keypoint_distance(np.stack([a, b]), np.stack([a, b]))
+    assert np.allclose(d, [[0, 0.1], [0.1, 0]])
+    few = a.copy()
+    few[2:, 2] = 0
+    assert np.isinf(keypoint_distance(few[None], a[None]))[0, 0]            # fewer than 3 shared
+
+
+def test_black_out_hides_boxes_grown_by_their_fraction_and_masks_with_a_darker_fill():
+    img = np.full((100, 200, 3), 200, np.uint8)
+    out = black_out(img, [], [np.array([50.0, 20.0, 90.0, 60.0])], grow=0.1)   # 40 x 40, +4 px a side
+    dark = np.all(out == 0, axis=2)
+    ys, xs = np.nonzero(dark)
+    assert (xs.min(), xs.max(), ys.min(), ys.max()) == (46, 94, 16, 64) and dark.sum() == 49 * 49
+    person = np.zeros((100, 200), np.float32)
+    person[30:70, 20:40] = 1.0
+    img[30:70, 20:40] = 255                                                    # a bright person on grey
+    hidden = black_out(img, [person], [])
+    assert hidden[30:70, 20:40].max() < 250 and np.array_equal(hidden[:, 100:], img[:, 100:])
 
 
 def test_two_people_found_at_their_boxes_by_searching_again_with_the_first_blacked_out():
