@@ -164,6 +164,41 @@ def black_out(rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray],
     return out
 
 
+#: BlazePose bones drawn to split a mask between people: face, arms, trunk, legs, feet
+BONES = ((0, 11), (0, 12), (11, 12), (11, 13), (13, 15), (12, 14), (14, 16), (11, 23), (12, 24), (23, 24),
+         (23, 25), (25, 27), (24, 26), (26, 28), (27, 29), (29, 31), (28, 30), (30, 32), (27, 31), (28, 32))
+
+
+def split_masks(masks: list[np.ndarray], keypoints: list[np.ndarray], min_confidence: float = 0.5,
+                reach: float = 0.1, step: int = 4) -> list[np.ndarray]:
+    """Each person's mask (H, W) keeps only the pixels nearer its own skeleton (the bones
+    between its keypoints with confidence >= ``min_confidence``) than any other person's, and
+    within ``reach`` x its keypoints' height of it: BlazePose's segmentation is of every
+    person in its crop, so where people overlap one person's mask covers the other.
+    Distances on a grid of ``step`` pixels."""
+    if not masks:
+        return masks
+    H, W = masks[0].shape
+    h, w = (H + step - 1) // step, (W + step - 1) // step
+    dist = []
+    for kp in keypoints:
+        canvas = np.full((h, w), 255, np.uint8)
+        ok = kp[:, 2] >= min_confidence
+        pts = np.round((kp[:, :2] + 0.5) / step - 0.5).astype(np.int64)
+        for a, b in BONES:
+            if ok[a] and ok[b]:
+                cv2.line(canvas, (int(pts[a, 0]), int(pts[a, 1])), (int(pts[b, 0]), int(pts[b, 1])), 0, 1)
+        for x, y in pts[ok]:
+            cv2.circle(canvas, (int(x), int(y)), 1, 0, -1)
+        d = cv2.distanceTransform(canvas, cv2.DIST_L2, 3)
+        height = np.ptp(kp[ok, 1]) / step if ok.sum() >= 2 else 0.0
+        dist.append(np.where(d <= max(reach * height, 2.0), d, np.inf))
+    dist = np.stack(dist)
+    nearest = np.where(np.isfinite(dist).any(axis=0), np.argmin(dist, axis=0), 255).astype(np.uint8)
+    nearest = cv2.resize(nearest, (W, H), interpolation=cv2.INTER_NEAREST)
+    return [m * (nearest == k) for k, m in enumerate(masks)]
+
+
 PoseFn = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None]
 
 
@@ -232,7 +267,7 @@ class PeopleDetector:
         kp[:, 0] += x0
         kp[:, 1] += y0
         mask = np.zeros((H, W), np.float32)
-        mask[y0:y1, x0:x1] = m
+        mask[y0:y1, x0:x1] = split_masks([m], [kp - np.array([x0, y0, 0])], self.settings.min_confidence)[0]
         return kp, mask
 
     def search(self, rgb: np.ndarray, masks: list[np.ndarray], known: list[np.ndarray], count: int
@@ -289,6 +324,9 @@ class PeopleDetector:
             finds = self.search(rgb, [m for _, m in kept], [k for k, _ in kept], wanted)
             for kp, mask in finds:
                 self._attach(kp, mask, new)
+        ids = sorted(new)
+        split = split_masks([new[i][1] for i in ids], [new[i][0] for i in ids], s.min_confidence)
+        new = {i: (new[i][0], m) for i, m in zip(ids, split, strict=True)}
         for t in self.tracks:
             if t.id in new:
                 t.keypoints, t.mask = new[t.id]
@@ -298,7 +336,7 @@ class PeopleDetector:
         if s.people is None:                 # a fixed number: ids wait to be found again, never retired
             self.tracks = [t for t in self.tracks if t.missed <= s.lost_after]
         self.frame += 1
-        return [Person(i, *new[i]) for i in sorted(new)]
+        return [Person(i, *new[i]) for i in ids]
 
     def _drop_duplicates(self, new: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         """Two followed people on the same body (keypoints within ``same_distance``): keep

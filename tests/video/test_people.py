@@ -31,6 +31,7 @@ from mocap.video.people import (
     keypoint_boxes,
     keypoint_distance,
     parse_people,
+    split_masks,
 )
 from mocap.video.people_views import group_views
 from mocap_cli.main import main as cli
@@ -87,6 +88,25 @@ def test_keypoint_distance_is_the_median_shift_over_the_height_whatever_the_boxe
     few = a.copy()
     few[2:, 2] = 0
     assert np.isinf(keypoint_distance(few[None], a[None]))[0, 0]            # fewer than 3 shared
+
+
+def test_split_masks_gives_each_overlapping_pixel_to_the_nearer_skeleton_within_reach():
+    """Two upright people at x = 40 and x = 80 (120 px tall) whose masks both cover both bodies
+    (BlazePose segments everyone in a crop): each keeps the pixels nearer its own bones, and,
+    with reach 0.1, none farther than 0.1 x 120 = 12 px from them."""
+    def stick(x):
+        kp = np.zeros((33, 3))
+        kp[:, 0], kp[:, 1], kp[:, 2] = x, np.linspace(10, 130, 33), 0.9
+        return kp
+    both = np.zeros((140, 120), np.float32)
+    both[10:131, 30:91] = 1.0
+    a, b = split_masks([both, both], [stick(40), stick(80)], reach=1.0, step=1)
+    assert not (a.astype(bool) & b.astype(bool)).any() and np.array_equal(a + b, both)
+    assert a[70, 59] == 1 and b[70, 61] == 1 and a[70, 61] == 0 and b[70, 59] == 0   # split half way
+    a, b = split_masks([both, both], [stick(40), stick(80)], reach=0.1, step=1)
+    # 12 px from the drawn bones (their points are discs of radius 1 grid cell: x 39-41, 79-81)
+    assert a[70, 53] == 1 and a[70, 54] == 0 and b[70, 67] == 1 and b[70, 66] == 0
+    assert a[70, 30] == 1 and b[70, 90] == 1
 
 
 def test_black_out_hides_boxes_grown_by_their_fraction_and_masks_with_a_darker_fill():
