@@ -18,6 +18,15 @@ The output folder::
                                           frames without a person, seconds per frame
     <out>/detect.json                     the folder's format and the settings of the run
 
+With ``people`` other than 1 (``--people N|auto``: every person, :mod:`mocap.video.people`),
+each keypoint file holds everyone found in that view (``"person_id": [id]``, the view's
+person id, stable over its frames; views are associated by the several-people tracker),
+``masks/<cam>/<cam>.<n:06d>.png`` is the union of everyone's masks and
+``masks/<cam>/<id>/<cam>.<n:06d>.png`` each person's; ``detect.json`` and the view records
+carry ``people`` (absent for 1: the one-person files of before), and per view
+``people_per_frame`` and ``person_ids``. The left/right check then runs per person
+(:func:`fix_left_right_people`).
+
 Resumable: a view whose record exists with the same settings is skipped (``force`` redoes
 it); a view without a record (an interrupted run) is redone from scratch. A view recorded
 with other settings is refused unless ``force``; a non-empty folder without ``detect.json``
@@ -439,4 +448,5 @@ def read_masks(folder: str | Path, names: Seq[str], frames: Seq[int], size: tupl
     return out
 
 
-__all__ = ["DetectPlan", "plan_detection", "run_detection", "read_masks", "summarise", "NUM_KEYPOINTS"]
+__all__ = ["DetectPlan", "plan_detection", "run_detection", "read_masks", "summarise", "NUM_KEYPOINTS",
+           "fix_left_right_people"]

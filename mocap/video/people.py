@@ -306,6 +306,10 @@ class PeopleDetector:
     def __call__(self, rgb: np.ndarray) -> list[Person]:
         s = self.settings
         H, W = rgb.shape[:2]
+        if self.tracks and self.tracks[0].mask.shape != (H, W):
+            raise ValueError(f"PeopleDetector: frame of {W}x{H} after frames of "
+                             f"{self.tracks[0].mask.shape[1]}x{self.tracks[0].mask.shape[0]}: one view's "
+                             "frames keep one size (one detector per view)")
         new: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         for t in self.tracks:                    # follow each person in a crop around its last keypoints
             box = keypoint_boxes(t.keypoints, s.min_confidence)
@@ -398,4 +402,4 @@ class PeopleDetector:
 
 
 __all__ = ["AUTO", "NUM_KEYPOINTS", "PeopleDetector", "PeopleSettings", "Person", "box_iou", "crop_box",
-           "keypoint_boxes", "keypoint_distance", "parse_people"]
+           "keypoint_boxes", "keypoint_distance", "parse_people", "split_masks"]

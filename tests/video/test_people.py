@@ -149,6 +149,13 @@ def test_per_view_ids_follow_each_person_over_frames_even_when_the_larger_one_ch
         assert np.allclose(by_id[0], left) and np.allclose(by_id[1], right), (f, by_id)
 
 
+def test_a_frame_of_another_size_is_refused_with_one_line():
+    det = PeopleDetector(PeopleSettings(people=2), pose=blob_pose)
+    det(scene([(20, 30, 80, 200)]))
+    with pytest.raises(ValueError, match="frame of 160x120 after frames of 320x240"):
+        det(scene([(20, 30, 80, 100)], size=(120, 160)))
+
+
 def test_a_person_who_leaves_and_comes_back_keeps_its_id_and_a_newcomer_gets_a_new_one():
     det = PeopleDetector(PeopleSettings(people=None, lost_after=3, search_every=1), pose=blob_pose)
     a, b = (20, 30, 80, 200), (200, 40, 250, 190)
@@ -211,6 +218,8 @@ def demo_subject_crop(n: int, margin: float = 0.12) -> tuple[np.ndarray, np.ndar
     demo = SHARED / "pose2sim-demo"
     people = json.loads((demo / "pose" / "cam01_json" / f"cam01.{n:04d}.json").read_text())["people"]
     kps = [np.reshape(p["pose_keypoints_2d"], (-1, 3)) for p in people]
+    for k in kps:
+        k[(k[:, 0] <= 0) | (k[:, 1] <= 0), 2] = 0                 # (0, 0): not found, whatever its score
     boxes = [keypoint_boxes(k, 0.3) for k in kps]
     box = max(boxes, key=lambda b: b[3] - b[1])
     cap = cv2.VideoCapture(str(demo / "videos" / "cam01.mp4"))
@@ -232,7 +241,7 @@ needs_demo = pytest.mark.skipif(not (SHARED / "pose2sim-demo" / "videos" / "cam0
 @needs_demo
 @pytest.mark.slow
 def test_blazepose_finds_two_pasted_people_at_their_known_boxes_with_stable_ids():
-    """Two crops of the demo's subject (frames n and n + 50: two poses) pasted side by side on
+    """Two crops of the demo's subject (frames n and n + 80: two poses) pasted side by side on
     grey, over 4 frames: 2 people every frame, each id's keypoint box overlapping its own
     pasted person's known box (IoU >= 0.6; BlazePose's and OpenPose's keypoints differ: feet,
     ears) and never the other one."""
@@ -240,11 +249,11 @@ def test_blazepose_finds_two_pasted_people_at_their_known_boxes_with_stable_ids(
     seen = {}
     try:
         for n in range(0, 8, 2):
-            (a, box_a), (b, box_b) = demo_subject_crop(n), demo_subject_crop(n + 50)
-            H = max(len(a), len(b))
-            canvas = np.full((H, a.shape[1] + b.shape[1] + 120, 3), 128, np.uint8)
+            (a, box_a), (b, box_b) = demo_subject_crop(n), demo_subject_crop(n + 80)
+            canvas = np.full((1200, 1000, 3), 128, np.uint8)                 # one size, as a video's frames
             canvas[:len(a), :a.shape[1]] = a
-            x_b = a.shape[1] + 120
+            x_b = 1000 - b.shape[1]
+            assert x_b >= a.shape[1] + 60                                      # apart
             canvas[:len(b), x_b:] = b
             known = np.stack([box_a, box_b + np.array([x_b, 0, x_b, 0])])
             found = det(canvas)
