@@ -13,7 +13,12 @@ person per image: the one its person detector scores highest. Black out that per
 and its keypoints' box) and the next-best person is found, until none is left or enough are
 found. This needs no other model and no other package. The cross-view association of the
 per-view people is the several-people tracker's job (``tracker=marker_people``);
-:func:`group_views` associates them per frame for the left/right check only.
+:func:`mocap.video.people_views.group_views` associates them per frame for the left/right
+check only.
+
+Limits (docs/results/people_from_video.md): where two people overlap in a view, BlazePose mixes
+them or finds one; with ``people=None`` (auto) the searches also find false skeletons made of
+what is left of the people already found (a limb outside their masks).
 """
 
 from __future__ import annotations
