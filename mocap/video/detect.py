@@ -18,6 +18,15 @@ The output folder::
                                           frames without a person, seconds per frame
     <out>/detect.json                     the folder's format and the settings of the run
 
+With ``people`` other than 1 (``--people N|auto``: every person, :mod:`mocap.video.people`),
+each keypoint file holds everyone found in that view (``"person_id": [id]``, the view's
+person id, stable over its frames; views are associated by the several-people tracker),
+``masks/<cam>/<cam>.<n:06d>.png`` is the union of everyone's masks and
+``masks/<cam>/<id>/<cam>.<n:06d>.png`` each person's; ``detect.json`` and the view records
+carry ``people`` (absent for 1: the one-person files of before), and per view
+``people_per_frame`` and ``person_ids``. The left/right check then runs per person
+(:func:`fix_left_right_people`).
+
 Resumable: a view whose record exists with the same settings is skipped (``force`` redoes
 it); a view without a record (an interrupted run) is redone from scratch. A view recorded
 with other settings is refused unless ``force``; a non-empty folder without ``detect.json``
@@ -42,6 +51,8 @@ from mocap.data.openpose import _find_calibration
 from mocap.safe_files import check_names, inside, write_text_atomic
 from mocap.video.detector import NUM_KEYPOINTS, DetectorSettings, PoseDetector
 from mocap.video.frames import VideoError, VideoFrames, frame_range, match_videos, video_info
+from mocap.video.people import AUTO, PeopleDetector, PeopleSettings, parse_people
+from mocap.video.people_views import group_views
 
 FORMAT = "mocap-detect-v1"
 KEYPOINTS_DIR, MASKS_DIR, RECORDS_DIR = "pose", "masks", "detect"
@@ -63,11 +74,20 @@ class DetectPlan:
     detector: DetectorSettings = field(default_factory=DetectorSettings)
     todo: tuple[str, ...] = ()          # cameras to run (the others are done with these settings)
     force: bool = False
+    people: int | None = 1              # people per view (None: everyone found, --people auto)
+
+    @property
+    def people_setting(self) -> int | str:
+        """``people`` as written in the records: the number, or "auto"."""
+        return AUTO if self.people is None else self.people
 
     def settings(self, c: int) -> dict:
         """What a view's record must match to be skipped."""
-        return {"video": str(self.videos[c].resolve()), "size": list(self.sizes[c]),
-                "frames": list(self.frames), "scale": self.scale, "detector": asdict(self.detector)}
+        out = {"video": str(self.videos[c].resolve()), "size": list(self.sizes[c]),
+               "frames": list(self.frames), "scale": self.scale, "detector": asdict(self.detector)}
+        if self.people != 1:            # one person: the records of before --people, still valid
+            out["people"] = self.people_setting
+        return out
 
 
 def _atomic_json(path: Path, data: dict) -> None:
@@ -77,9 +97,14 @@ def _atomic_json(path: Path, data: dict) -> None:
 def plan_detection(source: str | Path, out: str | Path, *, videos: str = "videos",
                    calibration: str | None = None, start: int = 0, stop: int | None = None,
                    step: int = 1, scale: float = 1.0, size_tolerance: float = 0.02,
-                   detector: DetectorSettings | None = None, force: bool = False) -> DetectPlan:
+                   detector: DetectorSettings | None = None, force: bool = False,
+                   people: int | str | None = 1) -> DetectPlan:
     """Check the inputs and the output folder (raises ValueError / FileNotFoundError /
-    FileExistsError with one line naming the file and what to do) and return the plan."""
+    FileExistsError with one line naming the file and what to do) and return the plan.
+    people: people per view, a whole number >= 1 or "auto" (everyone found; None means the
+    same); 1 is the one-person detector of before (tracking mode), more follow each person
+    in its own crop (:mod:`mocap.video.people`)."""
+    people = None if people is None else parse_people(people, "people")
     root = Path(source)
     if not root.is_dir():
         raise FileNotFoundError(f"recording folder not found: {root} (a folder with a calibration "
@@ -106,7 +131,8 @@ def plan_detection(source: str | Path, out: str | Path, *, videos: str = "videos
     total = min(i.frames for i in infos)
     frames = tuple(frame_range(total, start, stop, step))
     plan = DetectPlan(root, Path(out), calib, tuple(rig.names), tuple(paths), sizes, frames,
-                      float(scale), float(size_tolerance), detector or DetectorSettings(), (), bool(force))
+                      float(scale), float(size_tolerance), detector or DetectorSettings(), (), bool(force),
+                      people)
     return _check_out(plan)
 
 
@@ -151,6 +177,13 @@ def _people_json(kp: np.ndarray | None) -> dict:
     people = [] if kp is None else [{"person_id": [-1],
                                      "pose_keypoints_2d": [round(float(v), 3) for v in kp.reshape(-1)]}]
     return {"version": 1.3, "people": people}
+
+
+def _several_json(ids: Seq[int], kps: Seq[np.ndarray]) -> dict:
+    """OpenPose JSON of several people: ``person_id`` [the per-view id] (stable over the view's frames)."""
+    return {"version": 1.3, "people": [{"person_id": [int(i)],
+                                        "pose_keypoints_2d": [round(float(v), 3) for v in kp.reshape(-1)]}
+                                       for i, kp in zip(ids, kps, strict=True)]}
 
 
 #: BlazePose index -> its left/right mirror (eyes, ears, mouth corners, limbs, hands, feet)
@@ -220,6 +253,79 @@ def fix_left_right(plan: DetectPlan, progress: bool = True) -> dict[str, list[in
     return fixes
 
 
+def fix_left_right_people(plan: DetectPlan, progress: bool = True) -> dict[str, list[int]]:
+    """:func:`fix_left_right` for several people per view: in each frame the views' people are
+    grouped (:func:`mocap.video.people_views.group_views`: one person per view per group, by
+    the two-view triangulation of mirror-invariant centres) and each group of 3+ views is
+    checked as one person. Returns {camera: source frames where someone was mirrored}."""
+    from tqdm import tqdm
+
+    rig = load_calibration(plan.calibration)
+    out = plan.out / KEYPOINTS_DIR
+    fixes: dict[str, list[int]] = {name: [] for name in plan.names}
+    for n in tqdm(plan.frames, desc="left/right check", unit="frame", disable=not progress):
+        paths = [out / f"{name}_json" / frame_file(name, n, ".json") for name in plan.names]
+        files = [json.loads(p.read_text()) for p in paths]
+        ids = [[int(q["person_id"][0]) for q in f["people"]] for f in files]
+        people = [np.reshape([q["pose_keypoints_2d"] for q in f["people"]], (-1, NUM_KEYPOINTS, 3))
+                  for f in files]
+        changed = set()
+        for group in group_views(rig, people):
+            if len(group) < 3:
+                continue
+            kp = np.zeros((len(paths), NUM_KEYPOINTS, 3))
+            for c, i in group.items():
+                kp[c] = people[c][i]
+            for c in left_right_fixes(rig, kp):
+                people[c][group[c]] = kp[c]
+                changed.add(c)
+        for c in sorted(changed):
+            write_text_atomic(paths[c], json.dumps(_several_json(ids[c], people[c])))
+            fixes[plan.names[c]].append(n)
+    return fixes
+
+
+def _detect_people(plan: DetectPlan, c: int, frames: VideoFrames, kdir: Path, mdir: Path, bar) -> dict:
+    """Several people in view ``c``: keypoints of everyone per frame (person_id = the view's
+    person id), the union of their masks at masks/<cam>/<cam>.<n>.png and each person's at
+    masks/<cam>/<id>/<cam>.<n>.png. Returns the view record's figures."""
+    name = plan.names[c]
+    W, H = plan.sizes[c]
+    sx, sy = W / frames.width, H / frames.height
+    settings = PeopleSettings(people=plan.people, detector=plan.detector)
+    missing, counts, seconds = [], [], 0.0
+    with PeopleDetector(settings) as det:
+        for f, n in enumerate(plan.frames):
+            rgb = frames.view(f, 0)
+            t0 = time.perf_counter()
+            found = det(rgb)
+            seconds += time.perf_counter() - t0
+            kps = []
+            for person in found:
+                kp = person.keypoints.copy()
+                kp[:, 0] = sx * (kp[:, 0] + 0.5) - 0.5           # back to calibrated pixels
+                kp[:, 1] = sy * (kp[:, 1] + 0.5) - 0.5
+                kps.append(kp)
+            if not found:
+                missing.append(n)
+            counts.append(len(found))
+            text = json.dumps(_several_json([p.id for p in found], kps))
+            (kdir / frame_file(name, n, ".json")).write_text(text)
+            union = np.zeros((frames.height, frames.width), np.float32)
+            for person in found:
+                union = np.maximum(union, person.mask)
+                pdir = mdir / str(person.id)
+                pdir.mkdir(exist_ok=True)
+                cv2.imwrite(str(pdir / frame_file(name, n, ".png")),
+                            np.clip(np.round(255 * person.mask), 0, 255).astype(np.uint8))
+            cv2.imwrite(str(mdir / frame_file(name, n, ".png")),
+                        np.clip(np.round(255 * union), 0, 255).astype(np.uint8))
+            bar.update()
+    ids = sorted({int(p.name) for p in mdir.iterdir() if p.is_dir()})
+    return {"missing_frames": missing, "people_per_frame": counts, "person_ids": ids,
+            "seconds": seconds}
+
+
 def frame_file(name: str, n: int, suffix: str) -> str:
     return f"{name}.{n:06d}{suffix}"
 
@@ -236,6 +342,8 @@ def run_detection(plan: DetectPlan, progress: bool = True, left_right: bool = Tr
     out.mkdir(parents=True, exist_ok=True)
     head = {"format": FORMAT, "source": str(plan.source.resolve()), "calibration": plan.calibration.name,
             "layout": "MEDIAPIPE_33", "cameras": list(plan.names)}
+    if plan.people != 1:
+        head["people"] = plan.people_setting
     _atomic_json(out / "detect.json", head)
     if not (out / plan.calibration.name).is_file():
         shutil.copy2(plan.calibration, out / plan.calibration.name)
@@ -263,6 +371,15 @@ def run_detection(plan: DetectPlan, progress: bool = True, left_right: bool = Tr
         sx, sy = W / frames.width, H / frames.height
         missing, seconds = [], 0.0
         bar = tqdm(total=len(plan.frames), desc=f"detect {name}", unit="frame", disable=not progress)
+        if plan.people != 1:
+            with bar:
+                got = _detect_people(plan, c, frames, kdir, mdir, bar)
+            frames.close()
+            seconds = got.pop("seconds")
+            _atomic_json(rec, {"settings": plan.settings(c), **got,
+                               "resolution": [frames.width, frames.height],
+                               "seconds_per_frame": seconds / len(plan.frames)})
+            continue
         with PoseDetector(plan.detector) as det, bar:
             for f, n in enumerate(plan.frames):
                 rgb = frames.view(f, 0)
@@ -285,7 +402,8 @@ def run_detection(plan: DetectPlan, progress: bool = True, left_right: bool = Tr
         _atomic_json(rec, {"settings": plan.settings(c), "missing_frames": missing,
                            "resolution": [frames.width, frames.height],
                            "seconds_per_frame": seconds / len(plan.frames)})
-    fixes = fix_left_right(plan, progress) if left_right and len(plan.names) >= 3 else None
+    fix = fix_left_right if plan.people == 1 else fix_left_right_people
+    fixes = fix(plan, progress) if left_right and len(plan.names) >= 3 else None
     return summarise(out, plan.names, fixes, redone=plan.todo)
 
 
@@ -298,7 +416,8 @@ def summarise(out: Path, names: Seq[str], fixes: dict[str, list[int]] | None = N
     views = {}
     for name in names:
         rec = json.loads((out / RECORDS_DIR / f"{name}.json").read_text())
-        views[name] = {k: rec[k] for k in ("missing_frames", "resolution", "seconds_per_frame")}
+        views[name] = {k: rec[k] for k in ("missing_frames", "resolution", "seconds_per_frame",
+                                           "people_per_frame", "person_ids") if k in rec}
         views[name]["frames"] = len(rec["settings"]["frames"])
         before = [] if name in redone else head.get("views", {}).get(name, {}).get("left_right_mirrored", [])
         views[name]["left_right_mirrored"] = sorted(set(before) | set((fixes or {}).get(name, [])))
@@ -329,4 +448,5 @@ def read_masks(folder: str | Path, names: Seq[str], frames: Seq[int], size: tupl
     return out
 
 
-__all__ = ["DetectPlan", "plan_detection", "run_detection", "read_masks", "summarise", "NUM_KEYPOINTS"]
+__all__ = ["DetectPlan", "plan_detection", "run_detection", "read_masks", "summarise", "NUM_KEYPOINTS",
+           "fix_left_right_people"]

@@ -4,6 +4,15 @@ MEDIAPIPE_33 layout, with confidences) and person masks, in a Pose2Sim-style fol
     mocap detect ../shared/data/pose2sim-demo --out outputs/detect/demo
     mocap detect REC --out OUT --stop 100 --step 2 --scale 0.25     # detect at the tracked size
 
+With --people N (or auto) every person in every view is followed: each in a crop around its
+previous keypoints, new people found by searching the image again with the people already
+found blacked out (mocap/video/people.py); the keypoint files hold several people
+("person_id": the view's person id, stable over its frames) and the left/right check runs per
+person. Track them with the several-people tracker:
+
+    mocap track tracker=marker_people data=pose2sim_demo data.path=OUT data.person=all \\
+        init.mode=tracker
+
 REC holds a calibration (*.toml, or --calibration FILE) and videos/ with one video per camera
 (named like the calibration's cameras). OUT gets the calibration, links to the videos,
 pose/<cam>_json/*.json, masks/<cam>/*.png and detect.json (mocap/video/detect.py); the
@@ -53,9 +62,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--keep-left-right", action="store_true",
                    help="skip the multi-view check that mirrors a view's left/right labels when the other "
                         "views say they are swapped")
+    p.add_argument("--people", default="1",
+                   help="people per view: a whole number >= 1, or auto (everyone found; also finds "
+                        "false skeletons made of parts of the people already found: give N when "
+                        "known); 1 (default) follows one person per view; more: each person in its "
+                        "own crop, several people per keypoint file, a mask per person "
+                        "(masks/<cam>/<id>/)")
     p.add_argument("--force", action="store_true", help="redo views already done")
     p.add_argument("--no-progress", action="store_true")
     args = p.parse_args(argv)
+    from mocap.video.people import parse_people
+
+    people = parse_people(args.people, "--people")          # before anything else: one line, exit 2
     from mocap.video.detect import plan_detection, run_detection
     from mocap.video.detector import DetectorSettings, detector_available
 
@@ -69,7 +87,8 @@ def main(argv: list[str] | None = None) -> int:
         warnings.simplefilter("always")
         plan = plan_detection(args.recording, args.out, videos=args.videos, calibration=args.calibration,
                               start=args.start, stop=args.stop, step=args.step, scale=args.scale,
-                              size_tolerance=args.size_tolerance, detector=settings, force=args.force)
+                              size_tolerance=args.size_tolerance, detector=settings, force=args.force,
+                              people=people)
     for w in {str(w.message) for w in caught}:
         print(f"WARNING: {w}", file=sys.stderr)
     skipped = [n for n in plan.names if n not in plan.todo]
@@ -87,6 +106,11 @@ def main(argv: list[str] | None = None) -> int:
         w, h = v["resolution"]
         line = (f"{name}: {v['frames'] - len(miss)}/{v['frames']} frames with a person, "
                 f"{1000 * v['seconds_per_frame']:.0f} ms per frame at {w}x{h}")
+        if "people_per_frame" in v:
+            counts = v["people_per_frame"]
+            mean = sum(counts) / len(counts)
+            line += (f"; people per frame {min(counts)}-{max(counts)} (mean {mean:.2f}), "
+                     f"{len(v['person_ids'])} person ids")
         if miss:
             shown = ", ".join(map(str, miss[:20])) + (" ..." if len(miss) > 20 else "")
             line += f"; no person in source frames {shown}"
