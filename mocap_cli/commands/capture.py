@@ -100,9 +100,9 @@ def _people(value: str) -> int | str:
 
 
 def _trackers() -> list[str]:
-    from mocap_cli import CONF_DIR
+    from mocap.trackers.presets import PRESETS  # the presets are Python (no numeric import)
 
-    return sorted(p.stem for p in (Path(CONF_DIR) / "tracker").glob("*.yaml"))
+    return sorted(PRESETS)
 
 
 def _check_tracker(name: str, people) -> None:
