@@ -253,16 +253,10 @@ def _fingerprint(path: Path | str | None) -> list | None:
 
 
 def _plan_detection(source: Path, out: Path, *, people, **kwargs):
-    """mocap.video.detect.plan_detection, with ``people`` passed where it takes it; several people
-    where it does not are refused (one line)."""
+    """mocap.video.detect.plan_detection for ``people`` (1, N or "auto")."""
     from mocap.video.detect import plan_detection
 
-    if "people" in inspect.signature(plan_detection).parameters:
-        return plan_detection(source, out, people=people, **kwargs)
-    if people != 1:
-        raise ValueError(f"--people {people}: several people from video is not available in this mocap "
-                         "(mocap detect finds one person per view): use --people 1")
-    return plan_detection(source, out, **kwargs)
+    return plan_detection(source, out, people=people, **kwargs)
 
 
 # --- the stages -------------------------------------------------------------------------------

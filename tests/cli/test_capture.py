@@ -5,7 +5,6 @@ setting rerunning the later stages only, an interrupted stage leaving no record.
 
 from __future__ import annotations
 
-import inspect
 import json
 import os
 from pathlib import Path
@@ -21,6 +20,8 @@ REPO = Path(__file__).resolve().parents[2]
 CANDIDATES = [Path(os.environ.get("MOCAP_SHARED_DATA", REPO.parent / "shared" / "data")) / "pose2sim-demo",
               REPO / "../shared/data/pose2sim-demo"]
 DEMO = next((p.resolve() for p in CANDIDATES if (p / "videos").is_dir()), None)
+MULTI = next((p.parent.resolve() / "pose2sim-demo-multi" for p in CANDIDATES
+              if (p.parent / "pose2sim-demo-multi" / "videos").is_dir()), None)
 CAMERAS = ("cam_01", "cam_02", "cam_03", "cam_04")
 
 
@@ -50,12 +51,6 @@ def _recording(root: Path, lengths=(3, 3, 3, 3), names=("cam01", "cam02", "cam03
     for n, name in zip(lengths, names, strict=True):
         _video(root / "videos" / f"{name}.mp4", n, video_size)
     return root
-
-
-def _people_in_detection() -> bool:
-    from mocap.video.detect import plan_detection
-
-    return "people" in inspect.signature(plan_detection).parameters
 
 
 def _bad(tmp_path, case):
@@ -93,21 +88,16 @@ def _bad(tmp_path, case):
     if case == "people calibration from boards":
         _recording(rec)
         return [str(rec), "--calibrate", "people", "--intrinsics", str(rec)], "--intrinsics-from FILE"
-    if case == "several people":
-        _recording(rec)
-        return [str(rec), "--people", "2"], "not available"
     raise AssertionError(case)
 
 
 BAD = ["no folder", "no calibration", "calibration and calibrate", "video does not open", "different lengths",
        "camera names", "video size", "unknown tracker", "unknown format",
-       "people calibration from boards", "several people"]
+       "people calibration from boards"]
 
 
 @pytest.mark.parametrize("case", BAD)
 def test_each_bad_input_is_one_line_before_any_folder_is_written(tmp_path, capsys, case):
-    if case == "several people" and _people_in_detection():
-        pytest.skip("detection takes people=: several people from video are available")
     argv, words = _bad(tmp_path, case)
     out = tmp_path / "out"
     code = mocap(["capture", *argv, "--out", str(out)])
@@ -265,3 +255,30 @@ def test_ctrl_c_during_detection_leaves_no_stage_record(tmp_path):
 
     with run_lock(out):             # not held any more (a process ended by the watchdog leaves the file)
         pass
+
+
+@pytest.mark.skipif(MULTI is None, reason="Pose2Sim two-person demo not present")
+def test_capture_of_two_people_exports_each_person(tmp_path, capsys, monkeypatch):
+    """The real two-person video through every stage: two tracks, a BVH per person read back by
+    bvhio, one C3D holding both people's markers (ezc3d), the summary's per-person reprojection."""
+    from mocap.video.detector import detector_available
+
+    if not detector_available():
+        pytest.skip("mediapipe (the detector) not installed")
+    import bvhio
+    import ezc3d
+
+    monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
+    out = tmp_path / "cap"
+    assert mocap(["capture", str(MULTI), "--out", str(out), "--people", "2", "--stop", "5", "--scale", "0.5",
+                  "--formats", "bvh,c3d", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    record = json.loads((out / "capture.json").read_text())
+    assert record["summary"]["frames"] == 5 and record["summary"]["people"] == 2
+    assert "people: 2" in text and "person 0" in text and "person 1" in text
+    for person in (0, 1):
+        assert bvhio.readAsBvh(str(out / "export" / f"motion_p{person}.bvh")).FrameCount == 5
+    c3d = ezc3d.c3d(str(out / "export" / "motion.c3d"))
+    labels = c3d["parameters"]["POINT"]["LABELS"]["value"]
+    assert {lab.split("_")[0] for lab in labels} == {"p0", "p1"}
+    assert c3d["data"]["points"].shape[2] == 5
