@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from hydra.core.config_store import ConfigStore
 
-from mocap.data.source_settings import CrowdSource, FolderSource, OpenPoseSource, SyntheticSource
+from mocap.data.source_settings import CrowdSource, FolderSource, OpenPoseSource, SyntheticSource, VideoSource
 from mocap.settings import settings_to_mapping
 from mocap.trackers.presets import PRESETS
 
@@ -29,7 +29,7 @@ GROUP = "tracker"
 #: the config group of the data sources' default trees (``/data_settings@_here_: <source>``)
 DATA_GROUP = "data_settings"
 DATA_SOURCES = {"synthetic": SyntheticSource, "folder": FolderSource, "crowd": CrowdSource,
-                "openpose": OpenPoseSource}
+                "openpose": OpenPoseSource, "video": VideoSource}
 #: what every preset's node builds it with
 BUILDER = "mocap.trackers.presets.make_tracker"
 

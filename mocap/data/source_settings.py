@@ -118,9 +118,43 @@ class OpenPoseSource:
     nonfinite: str = "refuse"
 
 
+@dataclass(frozen=True)
+class VideoSource:
+    """A recording from its videos (``data=pose2sim_demo_video``,
+    :func:`mocap.video.sequence.load_video_sequence`): ``path`` the folder (required) holding
+    ``videos`` (one video per camera, matched to the calibration's names) and ``calibration``
+    (null: the single ``*.toml``); ``keypoints`` its OpenPose JSON folders (null: no detections)
+    in ``layout`` with ``person`` as for :class:`OpenPoseSource`; ``fps`` (null: the videos'
+    own); source frames ``start``:``stop``:``step``; images at ``scale`` of the calibrated size,
+    padded or cropped within ``size_tolerance`` of a side; silhouettes from ``masks`` (a ``mocap
+    segment`` folder or ``mocap detect``'s ``masks``, refined by ``refine_masks``: options of
+    :func:`mocap.video.person_masks.combine_masks`) or made at load time by ``segmentation``
+    (options of :func:`mocap.video.segmentation.segment_sequence`; null: no masks); ``gt`` as
+    for :class:`OpenPoseSource`."""
+
+    path: str | None = None
+    videos: str = "videos"
+    calibration: str | None = None
+    keypoints: str | None = "pose"
+    layout: str = "BODY_25B"
+    person: str = "subject"
+    fps: float | None = None
+    start: int = 0
+    stop: int | None = None
+    step: int = 1
+    scale: float = 1.0
+    size_tolerance: float = 0.02
+    masks: str | None = None
+    segmentation: dict | None = None
+    refine_masks: dict | None = None
+    name: str | None = None
+    gt: str | None = None
+
+
 #: a loader's ``_target_`` -> its settings class (:mod:`mocap.presets` checks a stored config's
 #: keys against its fields)
 SOURCES = {"mocap.data.sources.synthetic_sequence": SyntheticSource,
            "mocap.data.sources.folder_sequence": FolderSource,
            "mocap.data.crowd.crowd_sequence": CrowdSource,
-           "mocap.data.openpose.openpose_sequence": OpenPoseSource}
+           "mocap.data.openpose.openpose_sequence": OpenPoseSource,
+           "mocap.video.sequence.video_sequence": VideoSource}

@@ -13,6 +13,7 @@ see :func:`mocap.video.segmentation.segment_sequence`).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -23,7 +24,11 @@ from mocap.cameras import load_calibration
 from mocap.data.openpose import _find_calibration, load_openpose_sequence
 from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import gt_opted_out
+from mocap.data.source_settings import VideoSource
+from mocap.settings import settings_from_mapping
 from mocap.video.frames import VideoFrames, frame_range, match_videos, video_info
+
+_S = VideoSource()      # the defaults
 
 
 def rescale_detections(det: Detections, frames: list[int], sx: float, sy: float) -> Detections:
@@ -38,13 +43,15 @@ def rescale_detections(det: Detections, frames: list[int], sx: float, sy: float)
                       det.view[keep], det.label[keep], xy, det.confidence[keep])
 
 
-def load_video_sequence(path: str | Path, *, videos: str = "videos", calibration: str | None = None,
-                        keypoints: str | None = "pose", layout: str = "BODY_25B",
-                        person: str = "subject", fps: float | None = None, start: int = 0,
-                        stop: int | None = None, step: int = 1, scale: float = 1.0,
-                        size_tolerance: float = 0.02, masks: str | None = None,
-                        segmentation: Mapping | None = None, refine_masks: Mapping | None = None,
-                        name: str | None = None, gt: str | None = None) -> Sequence:
+def load_video_sequence(path: str | Path, *, videos: str = _S.videos,
+                        calibration: str | None = _S.calibration, keypoints: str | None = _S.keypoints,
+                        layout: str = _S.layout,
+                        person: str = _S.person, fps: float | None = _S.fps, start: int = _S.start,
+                        stop: int | None = _S.stop, step: int = _S.step, scale: float = _S.scale,
+                        size_tolerance: float = _S.size_tolerance, masks: str | None = _S.masks,
+                        segmentation: Mapping | None = _S.segmentation,
+                        refine_masks: Mapping | None = _S.refine_masks,
+                        name: str | None = _S.name, gt: str | None = _S.gt) -> Sequence:
     """A :class:`Sequence` with lazy video images, the scaled rig, keypoint detections (if
     ``keypoints``) and masks (if ``masks`` or ``segmentation``). refine_masks: options of
     :func:`mocap.video.person_masks.combine_masks` (e.g. ``{grabcut: true, background:
@@ -152,17 +159,19 @@ def _ground_truth_frames(gt, idx: list[int], path: str):
                           for k in ("joints", "joint_valid", "chi", "markers", "surface")})
 
 
-def video_sequence(*, body=None, path: str, **options) -> Sequence:
-    """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused. An
-    unknown setting is refused by name (before any file is read)."""
-    import inspect
-
-    known = [p for p in inspect.signature(load_video_sequence).parameters if p != "path"]
-    unknown = sorted(set(options) - set(known))
+def video_sequence(*, body=None, **keys) -> Sequence:
+    """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused; ``keys``:
+    the settings that differ from :class:`~mocap.data.source_settings.VideoSource`'s defaults.
+    An unknown setting is refused by name (before any file is read)."""
+    known = [f.name for f in dataclasses.fields(VideoSource) if f.name != "path"]
+    unknown = sorted(set(keys) - {"path", *known})
     if unknown:
         raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a video recording "
                          f"(settings: path, {', '.join(known)})")
-    return load_video_sequence(path, **options)
+    s = settings_from_mapping(VideoSource, keys)
+    if s.path is None:
+        raise ValueError("setting data.path is missing: the recording folder (data.path=/path/to/recording)")
+    return load_video_sequence(s.path, **{k: getattr(s, k) for k in known})
 
 
 def load_background_clip(folder: str | Path, seq: Sequence, max_frames: int = 60) -> np.ndarray:
