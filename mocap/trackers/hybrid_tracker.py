@@ -130,6 +130,7 @@ class HybridTracker(LocalTracker):
         self.chains = limb_chains(body)
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
+        self.shape_prior: np.ndarray | None = None      # the silhouettes' shape, the keypoint fits' prior
 
     @property
     def budget(self) -> SearchBudget:
@@ -167,6 +168,9 @@ class HybridTracker(LocalTracker):
         self.initialize(chi, alpha)
         report = {}
         if self.tracker_settings.keypoints.shape_std > 0:
+            self.shape_prior = np.asarray(alpha, np.float64)
+            if self.tracker_settings.keypoints.shape_frames > 1:
+                self.cue.add_shape_sample(obs)
             alpha, report["keypoint_shape"] = self.cue.fitted_shape(obs, alpha)
             self.set_shape(alpha)
         before = float(self.two_cue_energy(frame, obs, chi[None])[0])
@@ -231,6 +235,19 @@ class HybridTracker(LocalTracker):
         flagged[limbs] = True
         return dataclasses.replace(check, flagged=flagged, names=[self.body.joint_names[j] for j in limbs])
 
+    def refit_shape(self) -> dict | None:
+        """Once the keypoints of ``keypoints.shape_frames`` (> 1) frames are triangulated, fit the
+        shape to their median bone lengths (:meth:`KeypointCue.shape_over_frames`, the prior on the
+        silhouettes' shape) and track on with it; its report (None: not this frame)."""
+        cue = self.cue
+        if (cue is None or self.shape_prior is None or cue.settings.shape_frames < 2
+                or len(cue.shape_samples) != cue.settings.shape_frames):
+            return None
+        alpha, report = cue.shape_over_frames(self.shape_prior)
+        self.shape_prior = None                                  # once
+        self.set_shape(alpha)
+        return report
+
     def set_shape(self, alpha: np.ndarray) -> None:
         super().set_shape(alpha)
         self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale, mesh=self.energy_mesh)
@@ -240,6 +257,7 @@ class HybridTracker(LocalTracker):
             raise RuntimeError("initialize() the tracker before step()")
         t0 = time.perf_counter()
         obs = self.cue.observe(frame) if self.cue is not None else None
+        self.refit_shape()
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, local = self.local_step(frame, predicted, extra=self.keypoint_lines(obs))
         t1 = time.perf_counter()
@@ -289,5 +307,7 @@ class HybridTracker(LocalTracker):
         chi, shape = self.finish_step(frame, chi, verts, not check.names, timings)
         if obs is not None:
             self.cue.learn_offsets(self.shaped, chi, obs)
+            if self.shape_prior is not None and len(self.cue.shape_samples) < self.cue.settings.shape_frames:
+                self.cue.add_shape_sample(obs)
         return Estimate(chi=chi, alpha=self.shaped.alpha,
                         diagnostics=dataclasses.replace(report, shape=shape, timings=timings))

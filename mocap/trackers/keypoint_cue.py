@@ -19,9 +19,12 @@ today's, bit for bit.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from mocap.body.catalogue import make_landmark_set
+from mocap.body.bone_lengths import length_model, shrink_to_bounds, skeleton_length_model
+from mocap.body.catalogue import make_landmark_set, rest_point_basis, rigid_pairs
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.cameras import Rig, fundamental_matrices, view_rigs
@@ -37,7 +40,12 @@ from mocap.local.misalignment import limb_chains
 from mocap.local.solver import PointLines
 from mocap.trackers.markers.offsets import local_residuals, robust_offsets
 from mocap.trackers.markers.settings import MarkerInit
-from mocap.trackers.markers.startup import pinhole_rig, shape_from_landmarks, triangulate_candidates
+from mocap.trackers.markers.startup import (
+    fit_shape,
+    pinhole_rig,
+    shape_from_landmarks,
+    triangulate_candidates,
+)
 from mocap.trackers.tracker_settings import KeypointSettings
 
 
@@ -48,6 +56,37 @@ def check_detections(seq, name: str) -> None:
         raise ValueError(f"{name} uses 2D keypoint detections (tracker.keypoints.weight > 0), but sequence "
                          f"{seq.name!r} has none: use data with detections (e.g. data=real_bow_tall_man) "
                          "or tracker.keypoints.weight=0 (tracker=hybrid)")
+
+
+def shape_from_frames(body: BodyModel, landmarks: LandmarkSet, measured: np.ndarray, init: MarkerInit,
+                      prior_mean: np.ndarray, prior_std: float) -> tuple[np.ndarray, str | None]:
+    """The shape alpha (K,) fitted to the median over frames of the distances that no pose
+    changes between landmarks triangulated in several frames, ``measured`` (N, L, 3) world metres
+    (NaN: unmeasured), as :func:`~mocap.trackers.markers.startup.shape_from_landmarks` fits one
+    frame's (the same outlier test per frame, prior and bounds; ``init``: the marker tracker's
+    start-up settings). One frame's triangulation is off by the detections' noise (a bone 5-20 mm
+    on the real-motion benchmark), and a shape fitted to it keeps that error for the whole
+    sequence; the median of N frames' lengths is ~sqrt(N) times closer. Second value: the
+    bound flag, as there."""
+    rest0, basis = rest_point_basis(body, landmarks)
+    pairs = rigid_pairs(body, landmarks)
+    pair_model = length_model(rest0, basis, pairs)
+    lengths = pair_model.lengths(np.asarray(measured, np.float64))                 # (N, B)
+    lengths[np.abs(pair_model.z_scores(lengths)) > init.outlier_sigma] = np.nan
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)              # a pair measured in no frame: NaN
+        median = np.nanmedian(lengths, axis=0)
+    alpha = fit_shape(rest0, basis, pairs, median, init.length_sigma, prior_mean=prior_mean,
+                      prior_std=prior_std)
+    bones, bone_names = skeleton_length_model(body)
+    _, joints = body.rest(alpha[None])
+    z = bones.z_scores(bones.lengths(np.asarray(joints[0], np.float64)))
+    if np.abs(z).max() <= init.bound_sigma:
+        return alpha, None
+    worst = int(np.argmax(np.abs(z)))
+    alpha, scale = shrink_to_bounds(body, alpha, bones, init.bound_sigma)
+    return alpha, (f"fitted shape beyond the model's bounds ({bone_names[worst]} at {z[worst]:+.1f} "
+                   f"sigma), shrunk towards the mean by {scale:.2f} to +-{init.bound_sigma:g} sigma")
 
 
 class KeypointCue:
@@ -66,6 +105,7 @@ class KeypointCue:
         self.landmarks: LandmarkSet | None = None
         self.offsets: np.ndarray | None = None
         self._samples: list[np.ndarray] = []
+        self.shape_samples: list[np.ndarray] = []      # (L, 3) landmarks triangulated per frame
         self._chain_of = np.full(body.num_joints, -1)               # joint -> limb chain index
         self.chains = limb_chains(body)
         for i, (_, limbs) in enumerate(self.chains):
@@ -94,6 +134,22 @@ class KeypointCue:
                                             prior_std=self.settings.shape_std)
         report = {"triangulated": int(np.isfinite(measured).all(axis=1).sum()),
                   "alpha_change": float(np.linalg.norm(fitted - np.asarray(alpha, np.float64)))}
+        if flag is not None:
+            report["flag"] = flag
+        return fitted, report
+
+    def add_shape_sample(self, obs: MarkerObservation) -> int:
+        """Triangulate this frame's keypoints for :meth:`shape_over_frames`; the samples so far."""
+        self.shape_samples.append(triangulate_candidates(self.pinhole, obs, self.gate_px)[0])
+        return len(self.shape_samples)
+
+    def shape_over_frames(self, prior_mean: np.ndarray) -> tuple[np.ndarray, dict]:
+        """The shape (K,) fitted to the median bone lengths of the frames sampled so far
+        (:func:`shape_from_frames`, prior N(``prior_mean``, ``shape_std``^2)) and a report."""
+        fitted, flag = shape_from_frames(self.body, self.landmarks, np.stack(self.shape_samples),
+                                         MarkerInit(), prior_mean, self.settings.shape_std)
+        report = {"frames": len(self.shape_samples),
+                  "alpha_change": float(np.linalg.norm(fitted - np.asarray(prior_mean, np.float64)))}
         if flag is not None:
             report["flag"] = flag
         return fitted, report

@@ -39,8 +39,12 @@ KEYPOINT_WEIGHT = 200.0
 #: its start-up shape fit to the keypoints' bone lengths (prior std around the silhouettes' shape),
 #: chosen on the same dev split among 0, 1 and 3 (docs/results/real_motion.md)
 KEYPOINT_SHAPE_STD = 1.0
+#: the frames whose triangulated keypoints' median bone lengths the shape is fitted to again
+#: (issue 34, chosen on the same dev split among 1 and 15: docs/results/surface.md, "accuracy push")
+KEYPOINT_SHAPE_FRAMES = 15
 _HYBRID_KP = replace(HybridSettings(), keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
-                                                          shape_std=KEYPOINT_SHAPE_STD))
+                                                          shape_std=KEYPOINT_SHAPE_STD,
+                                                          shape_frames=KEYPOINT_SHAPE_FRAMES))
 
 #: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
 #: (docs/results/real_motion.md): its narrow sigma makes -log p steep

@@ -145,7 +145,10 @@ class KeypointSettings:
     ``shape_std``: with ``init``, first fit the body shape to the distances between the
     keypoints triangulated in frame 0 that no pose changes (the marker tracker's start-up fit),
     under a normal prior centred on the silhouettes' shape with this standard deviation (in the
-    model's standardised units; 0: keep the silhouettes' shape). Silhouettes measure the body's
+    model's standardised units; 0: keep the silhouettes' shape); ``shape_frames``: with
+    ``shape_std`` > 0 and N > 1, the shape is fitted again (same prior) when N frames are in,
+    to the median of their triangulated bone lengths (one frame's are off by the detections'
+    noise, and that error would stay for the whole sequence). Silhouettes measure the body's
     outline, keypoints its bone lengths, which the outline hardly constrains."""
 
     weight: float = 0.0
@@ -158,6 +161,7 @@ class KeypointSettings:
     offsets: OffsetLearning = OffsetLearning()
     init: bool = True
     shape_std: float = 0.0
+    shape_frames: int = 1
 
     def __post_init__(self) -> None:
         check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")
@@ -166,6 +170,7 @@ class KeypointSettings:
         check(self, "gate", 0.0 < self.gate <= 1.0, "(0, 1], a fraction of the image diagonal")
         check(self, "min_confidence", 0.0 <= self.min_confidence <= 1.0, "[0, 1]")
         check(self, "shape_std", self.shape_std >= 0, ">= 0 (0: the silhouettes' shape)")
+        check(self, "shape_frames", self.shape_frames >= 1, "an integer >= 1 (1: frame 0 only)")
         check(self, "landmarks", isinstance(self.landmarks, str | tuple),
               "a landmark set's name (auto) or a list of landmark names / entries")
 
