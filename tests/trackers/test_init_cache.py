@@ -38,7 +38,7 @@ class CountingStart(SilhouetteStart):
     def __call__(self, frame):
         import unittest.mock
 
-        def compute(body, rig, masks, rng, settings):
+        def compute(body, rig, masks, rng, settings, progress=None):
             self.tracker.calls += 1
             return (rng.normal(size=body.num_dofs), np.zeros(body.num_shape),
                     {"margin": 0.5, "hypotheses": [{"energy": 1.0}], "other": 3})
