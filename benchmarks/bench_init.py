@@ -10,7 +10,9 @@ For every data config (conf/data) the tracker config (``--tracker``, default
 :func:`mocap.trackers.init_cache.initial_estimate` runs without a cache (so nothing stored is
 reused). Printed and appended to ``--out`` (one JSON line per sequence): seconds, the
 frame-0 error (raw MPJPE over the joints matched by name, what a run's ``per_frame_mm[0]``
-holds), the winner's margin, the load (``os.getloadavg``) before and after, and the
+holds), ``cpu_seconds`` (the process's CPU time over the initialisation: with one thread about
+the seconds a quiet machine takes, and much less moved by other jobs than the wall time), the
+winner's margin, the load (``os.getloadavg``) before and after, and the
 ``mocap`` package the run imported, so that two checkouts can be compared in one session by
 running this file with PYTHONPATH pointing at each in turn::
 
@@ -18,7 +20,10 @@ running this file with PYTHONPATH pointing at each in turn::
         PYTHONPATH=$root .venv/bin/python benchmarks/bench_init.py --data $d \
         --label $root --out /tmp/ab.jsonl; done; done
 
-``--profile FILE``: cProfile of the (first) initialisation, its top lines printed.
+``--profile FILE``: cProfile of the (first) initialisation, its top lines printed. ``--init
+JSON``: initialiser settings (:class:`~mocap.trackers.tracker_settings.InitSettings` fields)
+changed for the run, e.g. ``'{"rounds": 1, "arm_abductions": [-0.6, 0.8]}'`` (the checkout
+must know the fields: leave it out for an older one).
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ No ground truth is used. Starting from the mean body:
    ``coarse_resolution``: the torso, then each limb, the arms from ``arm_abductions``, then
    all DOFs), each result also with its limbs swapped left/right (:func:`mirror_map`); all
    are scored by E_S at ``select_resolution`` (finer, where feet, hands and the face decide)
-   and the ``keep`` best go on;
+   and the ``keep`` best go on, after a local optimisation on the contours;
 4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (the partitioned
    searches again with a halved spread, then one over all DOFs at ``resolution``) and the
    shape coefficients (the first ``shape_components``, annealed search on E_S with the joint
@@ -23,7 +23,7 @@ The pose searches and the heading scan score E_S on the energy mesh (``energy_me
 triangles, :mod:`mocap.body.energy_mesh`, as the silhouette APFs do); the shape searches and
 the fine E_S that ranks hypotheses keep the full mesh (the shape changes the whole surface,
 and the ranking is where feet, hands and the face decide). The partitioned searches (most of
-the work) run small (20 x 5) at ``coarse_resolution`` (192 px); only the searches over all DOFs
+the work) run small (30 x 6) at ``coarse_resolution`` (192 px); only the searches over all DOFs
 run at ``resolution``; what does not change between hypotheses is built once (the downscaled
 masks and their distance transforms, the observed contours, the contour matcher, one energy per
 shape and resolution). ``progress(stage, fraction)`` reports the planned searches done.
@@ -310,7 +310,14 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     shape_apf = APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
                             diffusion=0.7, shrink=0.9)
     small = rig.scaled(scale)
-    state = [[hyp, hyp["chi"], alpha.copy()] for hyp in kept]     # hypothesis, pose, shape
+    def local_checked(a: np.ndarray, chi: np.ndarray) -> tuple[np.ndarray, float]:
+        """The contours' local optimisation, kept where it lowers the fine E_S (from a pose
+        too far off it can follow the wrong contours); the pose and its fine E_S."""
+        moved = local(a, chi)
+        e = fine_energy(a, np.array([chi, moved]))
+        return (moved, float(e[1])) if e[1] <= e[0] else (chi, float(e[0]))
+
+    state = [[hyp, local_checked(alpha, hyp["chi"])[0], alpha.copy()] for hyp in kept]  # hyp., pose, shape
     alive = list(range(len(state)))
     for r in range(settings.rounds):          # round by round, so that losers can be dropped
         for i in alive:
@@ -324,15 +331,18 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             report("refine", 1.0)
             # 4b. shape: annealed search over the first components (with shape_translate, and
             # the body's position with them), pose fixed
+            # with shape_translate also one that moves the body, the lower E_S of the two kept
+            # (the larger search loses a little where the mean height was right)
             energy = shape_energy(body, small, chi, target, C, translate=True, compiled=True)
+            c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
+                           shape_std * (0.6**r), shape_limits, shape_apf, rng)
+            c = np.r_[c, np.zeros(3)]
             if move > 0:
-                c, _ = run_apf(energy, np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
+                m, _ = run_apf(energy, np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
                                shape_apf, rng)
+                if energy(m[None])[0] < energy(c[None])[0]:
+                    c = m
                 hyp.setdefault("shape_shift_m", []).append([round(float(x), 4) for x in c[C:]])
-            else:
-                c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
-                               shape_std * (0.6**r), shape_limits, shape_apf, rng)
-                c = np.r_[c, np.zeros(3)]
             a = a.copy()
             a[:C] = c[:C]
             chi = shifted(chi, c[C:]) if move > 0 else chi
@@ -357,12 +367,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
         if i in alive:
             if settings.rounds == 0:          # the coarse result, searched once at the search resolution
                 chi = search(a, chi, std * 0.5, scale, target, apf)
-            # the contours' local optimisation, kept where it lowers the fine E_S (from a pose
-            # too far off it can follow the wrong contours)
-            moved = local(a, chi)
-            e = fine_energy(a, np.array([chi, moved]))
-            chi = moved if e[1] <= e[0] else chi
-            hyp["final_energy"] = float(min(e))
+            chi, hyp["final_energy"] = local_checked(a, chi)
             finals.append((hyp["final_energy"], chi, a))
             report("refine", 1.0)
         else:                                  # dropped: its energy when it was dropped

@@ -73,8 +73,8 @@ class InitSettings:
     prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
                                   # E_S) behind the best after a round; None: never
     coarse_resolution: int = 192  # E_S of the heading scan and the partitioned searches (px)
-    hypothesis_particles: int = 20  # the partitioned searches: particles x layers
-    hypothesis_layers: int = 5
+    hypothesis_particles: int = 30  # the partitioned searches: particles x layers
+    hypothesis_layers: int = 6
     arm_abductions: tuple[float, ...] = (0.0,)  # the arms' searches start at this (rad added to the
                                   # rest pose's shoulder abduction); two: the first layer spans the
                                   # range; more: a search from each, the lowest coarse E_S goes on
