@@ -3,30 +3,28 @@
 No ground truth is used. Starting from the mean body:
 1. position: the 3D point closest to the rays through the silhouette centroids of all
    views (the body's centre), which places the pelvis above it on the floor;
-2. heading: a scan over rotations about the vertical axis in the rest pose, scored by E_S;
+2. heading: a coarse search over rotations about the vertical axis, scored by E_S;
 3. hypotheses: silhouettes hardly tell front from back or the left limbs from the right ones,
-   so the ``hypotheses`` best distinct headings and their opposites are each searched coarsely
-   (annealed searches of ``hypothesis_particles`` x ``hypothesis_layers`` on E_S at
-   ``coarse_resolution``: the torso, then each limb, the arms from ``arm_abductions``, then
-   all DOFs), each result also with its limbs swapped left/right (:func:`mirror_map`); all
-   are scored by E_S at ``select_resolution`` (finer, where feet, hands and the face decide)
-   and the ``keep`` best go on, after a local optimisation on the contours;
-4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (the partitioned
-   searches again with a halved spread, then one over all DOFs at ``resolution``) and the
-   shape coefficients (the first ``shape_components``, annealed search on E_S with the joint
-   angles held fixed and, with ``shape_translate``, the body's position searched with them: a
-   taller body on the same root would push its feet through the floor); then a local
-   optimisation on the contours (kept where it lowers the fine E_S), and the hypothesis of
+   so the ``hypotheses`` best distinct headings and their opposites are each refined (an
+   annealed search on E_S over all DOFs, then local optimisation on the contours), each
+   result also with its limbs swapped left/right (:func:`mirror_map`); all are scored by E_S
+   at ``select_resolution`` (finer than the search's, where feet, hands and the face decide)
+   and the ``keep`` best go on;
+4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (annealed search,
+   local optimisation) and the shape coefficients (the first ``shape_components``, annealed
+   search on E_S with the joint angles held fixed and, with ``shape_translate``, the body's
+   position searched with them: a taller body on the same root would push its feet through
+   the floor, so without it the search prefers a body of the mean height); the hypothesis of
    lowest fine E_S wins. After every round but the last, a kept hypothesis whose fine E_S is
-   more than ``prune_margin`` (relative) above the best one's is dropped.
-The pose searches and the heading scan score E_S on the energy mesh (``energy_mesh``
+   more than ``prune_margin`` (relative) above the best one's is dropped: where the margin is
+   large the loser's remaining rounds are not spent.
+The pose searches (heading search aside) score E_S on the energy mesh (``energy_mesh``
 triangles, :mod:`mocap.body.energy_mesh`, as the silhouette APFs do); the shape searches and
 the fine E_S that ranks hypotheses keep the full mesh (the shape changes the whole surface,
-and the ranking is where feet, hands and the face decide). The partitioned searches (most of
-the work) run small (30 x 6) at ``coarse_resolution`` (192 px); only the searches over all DOFs
-run at ``resolution``; what does not change between hypotheses is built once (the downscaled
-masks and their distance transforms, the observed contours, the contour matcher, one energy per
-shape and resolution). ``progress(stage, fraction)`` reports the planned searches done.
+and the ranking is where feet, hands and the face decide). What does not change between
+hypotheses is built once: the downscaled masks and their distance transforms (coarse and
+fine), the observed contours, the contour matcher, and one energy per shape and resolution.
+``progress(stage, fraction)`` reports the searches done while it runs.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
 hypothesis, its lead when that was dropped).
@@ -51,7 +49,7 @@ from mocap.trackers.tracker_settings import APFSettings, InitSettings
 
 #: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
 #: inputs and settings: part of the initialisation cache's key (:mod:`mocap.trackers.init_cache`)
-INITIALIZER_VERSION = 4      # raised when the initialiser's results change (cached poses are redone)
+INITIALIZER_VERSION = 3      # raised when the initialiser's results change (cached poses are redone)
 
 
 def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -125,33 +123,6 @@ def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.n
     return np.clip(out, limits[:, 0], limits[:, 1])
 
 
-def _headings(yaws: np.ndarray, energies: np.ndarray, count: int) -> list[float]:
-    """The ``count`` lowest-energy headings (rad) distinct up to +180 deg (more than 60 deg apart
-    modulo 180: the opposite is a hypothesis of its own)."""
-    picked: list[float] = []
-    for i in np.argsort(energies):
-        gap = [abs((yaws[i] - y + np.pi / 2) % np.pi - np.pi / 2) for y in picked]
-        if all(g > np.pi / 3 + 1e-9 for g in gap):
-            picked.append(float(yaws[i]))
-        if len(picked) == count:
-            break
-    return picked
-
-
-def arm_starts(body: BodyModel, abductions: tuple[float, ...]) -> list[np.ndarray]:
-    """Joint-angle offsets (D,) that open both shoulders by each of ``abductions`` (rad, added
-    to the rest pose's ``*_shoulder_abd``; 0: the rest pose), in the limits: where the arms'
-    searches start (one), the range their first layer spans (two), or a start each (more)."""
-    out = []
-    for a in abductions:
-        d = np.zeros(body.num_dofs)
-        for k, n in enumerate(body.dof_names):
-            if n.endswith("shoulder_abd"):
-                d[k] = a
-        out.append(np.clip(d, body.limits[:, 0], body.limits[:, 1]))
-    return out
-
-
 class _Progress:
     """(stage, fraction) reports of the work done, in units of planned searches (one more unit
     for the end, so that only :meth:`finish` reports 1.0)."""
@@ -180,16 +151,14 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
                                 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """(chi (D,), alpha (K,), diagnostics) estimated from one frame's masks (C, H, W).
 
-    progress: called as ``progress(stage, fraction)`` while it runs (stages "position",
-    "heading", "hypotheses", "refine", "done"; fractions non-decreasing, the last call
-    ("done", 1.0))."""
+    progress: called as ``progress(stage, fraction)`` while it runs (stages "heading",
+    "hypotheses", "refine", "done"; fractions non-decreasing, the last call
+    ("done", 1.0) and no other at 1.0). The results do not depend on it."""
     if masks is None:
         raise ValueError("silhouette initialisation needs masks")
     scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
-    coarse = min(1.0, settings.coarse_resolution / float(np.max(rig.sizes)))
-    names = tuple(rig.names)
-    target = silhouette_target(masks, scale, view_names=names)
-    coarse_target = silhouette_target(masks, coarse, view_names=names)
+    target = silhouette_target(masks, scale, view_names=tuple(rig.names))
+    small = rig.scaled(scale)
     # 1. position from the silhouette centroids
     origins, dirs = [], []
     for c, cam in enumerate(rig):
@@ -203,17 +172,6 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     center = closest_point_to_rays(np.array(origins), np.array(dirs))
     alpha = np.zeros(body.num_shape)
     mesh = energy_mesh_for(body, settings.energy_mesh)     # None: the full mesh
-    groups = dof_partitions(body) if settings.partitioned else []
-    arms = arm_starts(body, settings.arm_abductions)
-    n_head = max(1, settings.hypotheses)
-    headings_n = n_head if settings.hypotheses == 0 else 2 * n_head
-    keep = min(max(1, settings.keep), headings_n * (2 if settings.hypotheses > 0 else 1))
-    # planned searches: per heading its partitioned searches (the arms' once per arm start) and
-    # one over all DOFs; per kept hypothesis and round a pose and a shape search; a final local
-    arm_groups = [g for g in groups if _is_arm(body, g)]
-    per_heading = len(groups) + len(arm_groups) * (len(arms) - 1 if len(arms) > 2 else 0) + 1
-    report = _Progress(progress, 1 + headings_n * per_heading + keep * (2 * settings.rounds + 1))
-    report("position", 0.0)
     # built once, shared by every hypothesis: shaped bodies and energies per shape (and scale)
     shapes: dict[bytes, ShapedBody] = {}
     energies: dict[tuple, SilhouetteEnergy] = {}
@@ -224,83 +182,78 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             shapes[key] = body.shaped(a)
         return shapes[key]
 
-    def energy_for(a: np.ndarray, at: float, on_mesh: bool) -> SilhouetteEnergy:
-        key = (np.asarray(a, np.float64).tobytes(), at, on_mesh)
+    def energy_for(a: np.ndarray, at: float, coarse: bool) -> SilhouetteEnergy:
+        key = (np.asarray(a, np.float64).tobytes(), at, coarse)
         if key not in energies:
-            energies[key] = SilhouetteEnergy(shaped_for(a), rig, at, mesh=mesh if on_mesh else None)
+            energies[key] = SilhouetteEnergy(shaped_for(a), rig, at, mesh=mesh if coarse else None)
         return energies[key]
 
-    # 2. heading scan with the mean body in the rest pose (energy mesh, coarse resolution)
+    # 2. heading search with the mean body in the rest pose (full mesh: 12 poses)
+    sil = energy_for(alpha, scale, False)
     yaws = np.linspace(0, 2 * np.pi, settings.headings, endpoint=False)
     cands = np.zeros((len(yaws), body.num_dofs))
     for i, yaw in enumerate(yaws):
         cands[i, :6] = root_twist(yaw, center[0], center[1])
-    e_head = energy_for(alpha, coarse, True)(cands, coarse_target)
+    e_head = sil(cands, target)
     diag = {"center": center.tolist(), "heading_energy": e_head.tolist()}
-    report("heading", 1.0)
     std = np.r_[np.full(3, 0.05), np.full(3, 0.15), np.full(body.num_dofs - 6, 0.3)]
     obs = observed_contours(masks)
     matcher = ContourMatcher(body, rig)
     apf = APFSettings(particles=settings.pose_particles, layers=settings.pose_layers, diffusion=0.7,
                       shrink=0.9)
-    first = APFSettings(particles=settings.hypothesis_particles, layers=settings.hypothesis_layers,
-                        diffusion=0.7, shrink=0.9)
     fine_scale = min(1.0, settings.select_resolution / float(np.max(rig.sizes)))
-    fine_target = silhouette_target(masks, fine_scale, view_names=names)
+    fine_target = silhouette_target(masks, fine_scale, view_names=tuple(rig.names))
 
-    def fine_energy(a: np.ndarray, chi: np.ndarray) -> np.ndarray:
-        return energy_for(a, fine_scale, False)(np.atleast_2d(chi), fine_target)
+    def fine_energy(a: np.ndarray, chi: np.ndarray) -> float:
+        return float(energy_for(a, fine_scale, False)(chi[None], fine_target)[0])
 
-    def search(a, x0, spread, at, tgt, how, free=None):
-        sil = energy_for(a, at, True)             # the energy mesh
-        return run_apf(lambda x: sil(x, tgt), x0, spread, body.limits, how, rng, free=free,
-                       root_point=sil.shaped.rest_joints[0])[0]
+    groups = dof_partitions(body) if settings.partitioned else []
+
+    def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
+        sil = energy_for(a, scale, True)          # the energy mesh
+
+        def search(x0, free=None):
+            return run_apf(lambda x: sil(x, target), x0, spread, body.limits, apf, rng, free=free,
+                           root_point=sil.shaped.rest_joints[0])[0]
+
+        for free in groups:                       # partitioned: torso first, then each limb
+            chi = search(chi, free)
+        return local(a, search(chi))
 
     def local(a: np.ndarray, chi: np.ndarray) -> np.ndarray:
         chi, _ = optimize_pose(shaped_for(a), chi, lambda v: matcher(v, obs), settings.local_iterations)
         return chi
 
-    # 3. hypotheses: distinct headings and their opposites, each searched coarsely (partitioned:
-    # the torso, then each limb, the arms from every arm start, then all DOFs), each result also
-    # with its limbs swapped; all ranked by E_S at the fine resolution
-    picked = _headings(yaws, e_head, n_head)
+    # 3. hypotheses: distinct headings, their opposites, each with its limbs swapped
+    order = np.argsort(e_head)
+    picked: list[float] = []
+    for i in order:        # distinct up to +180 deg (the opposite is a hypothesis of its own)
+        gap = [abs((yaws[i] - y + np.pi / 2) % np.pi - np.pi / 2) for y in picked]
+        if all(g > np.pi / 3 + 1e-9 for g in gap):
+            picked.append(float(yaws[i]))
+        if len(picked) == max(1, settings.hypotheses):
+            break
     # hypotheses=0: a single hypothesis (the best heading as found), for comparison
     headings = picked if settings.hypotheses == 0 else [y + d for y in picked for d in (0.0, np.pi)]
     perm, sign = mirror_map(body)
-    coarse_energy = energy_for(alpha, coarse, True)
     hypotheses = []
+    keep = min(max(1, settings.keep), len(headings) * (2 if settings.hypotheses > 0 else 1))
+    # 20-70 s on a real recording: the searches (headings, then rounds per hypothesis) reported
+    report = _Progress(progress, len(headings) + settings.rounds * keep + keep)
+    report("heading", 0.0)
     for yaw in headings:
         h = np.zeros(body.num_dofs)
         h[:6] = root_twist(yaw, center[0], center[1])
-        for free in groups:
-            if _is_arm(body, free) and len(arms) == 2:
-                # one search whose first layer spans the two arm starts (each particle at
-                # a uniform point between them: the shoulders' abduction range)
-                h = run_apf(lambda x: coarse_energy(x, coarse_target), np.where(free, h + arms[1], h),
-                            std, body.limits, first, rng, free=free, previous=np.where(free, h + arms[0], h),
-                            root_point=coarse_energy.shaped.rest_joints[0])[0]
-                report("hypotheses", 1.0)
-            elif _is_arm(body, free) and len(arms) > 1:
-                # the arm's search from every start; the lowest coarse E_S goes on
-                tries = [search(alpha, np.where(free, h + d, h), std, coarse, coarse_target, first, free)
-                         for d in arms]
-                e = energy_for(alpha, coarse, True)(np.array(tries), coarse_target)
-                h = tries[int(np.argmin(e))]
-                report("hypotheses", len(arms))
-            else:
-                h = search(alpha, h, std, coarse, coarse_target, first, free)
-                report("hypotheses", 1.0)
-        h = search(alpha, h, std * 0.5 if groups else std, coarse, coarse_target, first)
-        report("hypotheses", 1.0)
+        h = refine_pose(alpha, h, std)
         variants = [("refined", h)]
         if settings.hypotheses > 0:
-            variants.append(("limbs swapped", swap_limbs(h, perm, sign, body.limits)))
-        e = fine_energy(alpha, np.array([v for _, v in variants]))
-        for (kind, v), ev in zip(variants, e, strict=True):
+            variants.append(("limbs swapped", local(alpha, swap_limbs(h, perm, sign, body.limits))))
+        for kind, v in variants:
             hypotheses.append({"heading_deg": float(np.degrees(yaw) % 360), "kind": kind,
-                               "energy": float(ev), "chi": v})
+                               "energy": fine_energy(alpha, v), "chi": v})
+        report("hypotheses", 1.0)
     hypotheses.sort(key=lambda d: d["energy"])
-    kept = hypotheses[:keep]
+    kept = hypotheses[:max(1, settings.keep)]
     C, move = settings.shape_components, float(settings.shape_translate)
     shape_std = np.full(C, 0.8)
     shape_limits = np.tile([-3.0, 3.0], (C, 1))
@@ -309,29 +262,15 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     move_limits = np.vstack([shape_limits, np.tile([-move, move], (3, 1))])
     shape_apf = APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
                             diffusion=0.7, shrink=0.9)
-    small = rig.scaled(scale)
-    def local_checked(a: np.ndarray, chi: np.ndarray) -> tuple[np.ndarray, float]:
-        """The contours' local optimisation, kept where it lowers the fine E_S (from a pose
-        too far off it can follow the wrong contours); the pose and its fine E_S."""
-        moved = local(a, chi)
-        e = fine_energy(a, np.array([chi, moved]))
-        return (moved, float(e[1])) if e[1] <= e[0] else (chi, float(e[0]))
-
-    state = [[hyp, local_checked(alpha, hyp["chi"])[0], alpha.copy()] for hyp in kept]  # hyp., pose, shape
+    state = [[hyp, hyp["chi"], alpha.copy()] for hyp in kept]     # hypothesis, pose, shape
     alive = list(range(len(state)))
     for r in range(settings.rounds):          # round by round, so that losers can be dropped
         for i in alive:
             hyp, chi, a = state[i]
-            # 4a. pose: annealed searches on E_S (partitioned: the torso, then each limb at the
-            # coarse resolution), then over all DOFs at the search resolution
-            spread = std * (0.5 ** (r + 1))
-            for free in groups:
-                chi = search(a, chi, spread, coarse, coarse_target, first, free)
-            chi = search(a, chi, spread, scale, target, apf)
-            report("refine", 1.0)
-            # 4b. shape: annealed search over the first components (with shape_translate, and
-            # the body's position with them), pose fixed
-            # with shape_translate also one that moves the body, the lower E_S of the two kept
+            # 4a. pose: annealed search on E_S, then local optimisation on the contours
+            chi = refine_pose(a, chi, std * (0.5 ** (r + 1)))
+            # 4b. shape: annealed search over the first components, pose fixed; with
+            # shape_translate also one that moves the body, the lower E_S of the two kept
             # (the larger search loses a little where the mean height was right)
             energy = shape_energy(body, small, chi, target, C, translate=True, compiled=True)
             c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
@@ -350,8 +289,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             report("refine", 1.0)
         if len(alive) > 1 and r < settings.rounds - 1:
             for i in alive:
-                state[i][0].setdefault("round_energy", []).append(float(fine_energy(state[i][2],
-                                                                                    state[i][1])[0]))
+                state[i][0].setdefault("round_energy", []).append(fine_energy(state[i][2], state[i][1]))
             if settings.prune_margin is not None:
                 best = min(state[i][0]["round_energy"][-1] for i in alive)
                 lead = {i: (state[i][0]["round_energy"][-1] - best) / max(best, 1e-12) for i in alive}
@@ -361,17 +299,17 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
                         state[i][0]["lead_when_pruned"] = lead[i]
                 dropped = sum(lead[i] > settings.prune_margin for i in alive)
                 alive = [i for i in alive if lead[i] <= settings.prune_margin]
-                report.drop(dropped * (2 * (settings.rounds - r - 1) + 1))   # their later rounds, final
+                report.drop(dropped * (settings.rounds - r))      # their later rounds and final search
     finals = []
     for i, (hyp, chi, a) in enumerate(state):
         if i in alive:
-            if settings.rounds == 0:          # the coarse result, searched once at the search resolution
-                chi = search(a, chi, std * 0.5, scale, target, apf)
-            chi, hyp["final_energy"] = local_checked(a, chi)
+            chi = local(a, chi)
+            hyp["final_energy"] = fine_energy(a, chi)
             finals.append((hyp["final_energy"], chi, a))
             report("refine", 1.0)
         else:                                  # dropped: its energy when it was dropped
             hyp["final_energy"] = hyp["round_energy"][-1]
+    report.finish()
     finals.sort(key=lambda t: t[0])
     _, chi, alpha = finals[0]
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
@@ -379,11 +317,4 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     leads = [(e - finals[0][0]) / max(finals[0][0], 1e-12) for e, _, _ in finals[1:]]
     leads += [state[i][0]["lead_when_pruned"] for i in range(len(state)) if i not in alive]
     diag["margin"] = float(min(leads)) if leads else None
-    report.finish()
     return chi, alpha, diag
-
-
-def _is_arm(body: BodyModel, free: np.ndarray) -> bool:
-    """True when the free DOFs (D,) bool are one arm's (a partition of :func:`dof_partitions`)."""
-    names = [body.dof_names[k] for k in np.flatnonzero(free)]
-    return bool(names) and all(k >= 6 for k in np.flatnonzero(free)) and any("shoulder" in n for n in names)

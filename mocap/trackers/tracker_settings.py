@@ -57,10 +57,10 @@ class InitSettings:
     resolution: int = 256
     headings: int = 12
     rounds: int = 2
-    pose_particles: int = 30      # the searches over all DOFs at ``resolution``
-    pose_layers: int = 6
-    shape_particles: int = 30
-    shape_layers: int = 6
+    pose_particles: int = 60
+    pose_layers: int = 10
+    shape_particles: int = 40
+    shape_layers: int = 8
     shape_components: int = 8
     local_iterations: int = 10
     hypotheses: int = 2           # distinct headings refined (each also at +180 deg, and with
@@ -72,22 +72,12 @@ class InitSettings:
     energy_mesh: int | None = ENERGY_MESH_FACES  # pose searches' E_S mesh (triangles); None: full mesh
     prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
                                   # E_S) behind the best after a round; None: never
-    coarse_resolution: int = 192  # E_S of the heading scan and the partitioned searches (px)
-    hypothesis_particles: int = 30  # the partitioned searches: particles x layers
-    hypothesis_layers: int = 6
-    arm_abductions: tuple[float, ...] = (0.0,)  # the arms' searches start at this (rad added to the
-                                  # rest pose's shoulder abduction); two: the first layer spans the
-                                  # range; more: a search from each, the lowest coarse E_S goes on
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
               "null (the full mesh) or >= 4 triangles")
         check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
               "null (never) or >= 0 (relative)")
-        for name in ("coarse_resolution", "hypothesis_layers"):
-            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
-        check(self, "hypothesis_particles", self.hypothesis_particles >= 2, "an integer >= 2")
-        check(self, "arm_abductions", len(self.arm_abductions) >= 1, "a non-empty list of angles (rad)")
 
 
 @dataclass(frozen=True)

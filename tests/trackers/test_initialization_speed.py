@@ -33,8 +33,8 @@ def test_the_energy_mesh_pose_search_finds_the_known_pose(walk, monkeypatch):
             return super().__call__(chi, target)
 
     monkeypatch.setattr(initialization, "SilhouetteEnergy", Counted)
-    settings = InitSettings(headings=8, hypotheses=1, keep=1, rounds=0, hypothesis_particles=30,
-                            hypothesis_layers=6, select_resolution=256)
+    settings = InitSettings(headings=8, hypotheses=1, keep=1, rounds=0, pose_particles=30, pose_layers=6,
+                            select_resolution=256)
     assert settings.energy_mesh == ENERGY_MESH_FACES
     chi, alpha, diag = initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0),
                                                    settings)
@@ -42,11 +42,9 @@ def test_the_energy_mesh_pose_search_finds_the_known_pose(walk, monkeypatch):
     assert error < 60, error                        # the mean body, not refined: ~40 mm
     coarse = min(evaluated)
     assert coarse < body.num_vertices / 3 and set(evaluated) == {coarse, body.num_vertices}
-    # the heading scan (8 poses), the searches (2 headings x 6 partitioned searches x 30 x 6)
-    # and the winner's search over all DOFs (pose_particles x pose_layers) ran on the energy
-    # mesh; the hypotheses' ranking and the local step's check (full mesh) are a handful of poses
-    n_final = settings.pose_particles * settings.pose_layers
-    assert evaluated[coarse] == 8 + 2 * 6 * 30 * 6 + n_final and evaluated[body.num_vertices] < 20
+    # the searches (2 headings x 6 partitioned searches x 30 x 6) ran on the energy mesh; the
+    # heading scan and the hypotheses' ranking (full mesh) are a handful of poses
+    assert evaluated[coarse] == 2 * 6 * 30 * 6 and evaluated[body.num_vertices] < 20
 
 
 def test_a_hypothesis_far_behind_after_a_round_is_dropped(walk):
@@ -99,9 +97,8 @@ def test_the_compiled_shape_energy_equals_the_numpy_one():
 def test_progress_is_reported_in_stages_with_increasing_fractions_ending_at_one(walk):
     body, seq = walk
     cheap = dict(headings=4, hypotheses=1, keep=2, rounds=2, pose_particles=8, pose_layers=2,
-                 hypothesis_particles=8, hypothesis_layers=2, shape_particles=6, shape_layers=2,
-                 resolution=96, coarse_resolution=64, select_resolution=128, local_iterations=2,
-                 arm_abductions=(0.0, 0.8))
+                 shape_particles=6, shape_layers=2, resolution=96, select_resolution=128,
+                 local_iterations=2, partitioned=False)
     for margin in (None, 0.0):                      # 0.0: a hypothesis is dropped after round 1
         calls = []
         initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0),
@@ -112,11 +109,22 @@ def test_progress_is_reported_in_stages_with_increasing_fractions_ending_at_one(
         assert calls[-1] == ("done", 1.0) and stages.count("done") == 1
         assert np.all(np.diff(fractions) >= 0) and np.all((fractions >= 0) & (fractions <= 1))
         assert fractions[:-1].max() < 1.0           # nothing claims to be finished before the end
-        order = ["position", "heading", "hypotheses", "refine", "done"]
-        assert sorted(set(stages), key=order.index) == order
+        order = ["heading", "hypotheses", "refine", "done"]
         assert [order.index(s) for s in stages] == sorted(order.index(s) for s in stages)
-        # one report per step: the position, the heading scan, per heading 6 searches (torso,
-        # each limb: an arm's 2 starts in one report, all DOFs), per kept hypothesis and round
-        # a pose and a shape search, a final local step per hypothesis still alive, the end
-        refine = 2 * 2 * 2 + 2 if margin is None else 2 * 2 + 1 * 2 + 1
-        assert len(calls) == 1 + 1 + 2 * 6 + refine + 1
+        # one report per step: the heading scan, per heading (2) its searches, per kept
+        # hypothesis and round its pose and shape searches, a final step per hypothesis still
+        # alive, the end
+        refine = 2 * 2 + 2 if margin is None else 2 + 1 + 1
+        assert len(calls) == 1 + 2 + refine + 1
+
+
+def test_the_progress_callback_does_not_change_the_result(walk):
+    body, seq = walk
+    cheap = InitSettings(headings=4, hypotheses=1, keep=1, rounds=1, pose_particles=8, pose_layers=2,
+                         shape_particles=6, shape_layers=2, resolution=96, select_resolution=128,
+                         local_iterations=2, partitioned=False)
+    quiet = initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), cheap)
+    told = initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), cheap,
+                                       progress=lambda stage, f: None)
+    np.testing.assert_array_equal(quiet[0], told[0])
+    np.testing.assert_array_equal(quiet[1], told[1])
