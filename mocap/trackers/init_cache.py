@@ -47,7 +47,7 @@ class ProgressLine:
     def __init__(self, desc: str):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=100, desc=desc, unit="%", bar_format="{l_bar}{bar}| {elapsed} {postfix}")
+        self.bar = tqdm(total=100, desc=desc, unit="%", bar_format="{l_bar}{bar}| {elapsed}{postfix}")
 
     def __call__(self, stage: str, fraction: float) -> None:
         n = int(round(100 * min(max(fraction, 0.0), 1.0)))
