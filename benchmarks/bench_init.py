@@ -2,7 +2,7 @@
 
     PYTHONPATH=$PWD OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_init.py \
         [--data mismatch_box,mismatch_walk,mismatch_gesture] [--seed 0] [--threads 1] \
-        [--label new] [--out /tmp/init.jsonl] [--profile /tmp/init.prof]
+        [--label new] [--out /tmp/init.jsonl] [--profile /tmp/init.prof] [--init '{"rounds": 1}']
 
 For every data config (conf/data) the tracker config (``--tracker``, default
 ``apf_prior``: every silhouette tracker initialises with the same settings) is built as
@@ -10,7 +10,9 @@ For every data config (conf/data) the tracker config (``--tracker``, default
 :func:`mocap.trackers.init_cache.initial_estimate` runs without a cache (so nothing stored is
 reused). Printed and appended to ``--out`` (one JSON line per sequence): seconds, the
 frame-0 error (raw MPJPE over the joints matched by name, what a run's ``per_frame_mm[0]``
-holds), the winner's margin, the load (``os.getloadavg``) before and after, and the
+holds), ``cpu_seconds`` (the process's CPU time over the initialisation: with one thread about
+the seconds a quiet machine takes, and much less moved by other jobs than the wall time), the
+winner's margin, the load (``os.getloadavg``) before and after, and the
 ``mocap`` package the run imported, so that two checkouts can be compared in one session by
 running this file with PYTHONPATH pointing at each in turn::
 
@@ -18,13 +20,17 @@ running this file with PYTHONPATH pointing at each in turn::
         PYTHONPATH=$root .venv/bin/python benchmarks/bench_init.py --data $d \
         --label $root --out /tmp/ab.jsonl; done; done
 
-``--profile FILE``: cProfile of the (first) initialisation, its top lines printed.
+``--profile FILE``: cProfile of the (first) initialisation, its top lines printed. ``--init
+JSON``: initialiser settings (:class:`~mocap.trackers.tracker_settings.InitSettings` fields)
+changed for the run, e.g. ``'{"rounds": 1, "arm_abductions": [-0.6, 0.8]}'`` (the checkout
+must know the fields: leave it out for an older one).
 """
 
 from __future__ import annotations
 
 import argparse
 import cProfile
+import dataclasses
 import json
 import os
 import pstats
@@ -55,23 +61,27 @@ def _commit(path: str) -> str:
         return ""
 
 
-def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | None) -> dict:
+def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | None,
+            init: dict | None = None) -> dict:
     cfg = compose("track", [f"data={data}", f"tracker={tracker}", f"seed={seed}", "init.mode=tracker"])
     body = build(cfg.body)
     seq = build(cfg.data, body=body)
     trk = build(cfg.tracker, body=body, rig=seq.rig, rng=np.random.default_rng([seed, 1]),
                 keep_particles=False)
+    if init:                    # --init: initialiser settings changed for this run
+        trk.init_settings = dataclasses.replace(trk.init_settings, **init)
     frame = frame_of(seq, 0)
     load = os.getloadavg()[0]
     prof = cProfile.Profile() if profile else None
     with thread_budget(threads):
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         if prof is not None:
             prof.enable()
         chi, alpha, info = initial_estimate(trk, frame, cache=None)
         if prof is not None:
             prof.disable()
         seconds = time.perf_counter() - t
+        cpu = time.process_time() - cpu
     if prof is not None:
         prof.dump_stats(profile)
         pstats.Stats(profile).sort_stats("cumulative").print_stats(30)
@@ -79,7 +89,8 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
     acc = accuracy_metrics(body, seq, chi[None], alpha)
     root = os.path.dirname(os.path.dirname(os.path.abspath(mocap.__file__)))
     return {"data": data, "seed": seed, "label": "", "mocap": root, "commit": _commit(root),
-            "seconds": round(seconds, 2), "frame0_mm": round(float(acc["per_frame_mm"][0]), 2),
+            "seconds": round(seconds, 2), "cpu_seconds": round(cpu, 2),
+            "frame0_mm": round(float(acc["per_frame_mm"][0]), 2),
             "margin": info.get("margin"), "load_before": round(load, 2),
             "load_after": round(os.getloadavg()[0], 2), "threads": threads,
             "hypotheses": info.get("hypotheses")}
@@ -94,12 +105,15 @@ def main() -> None:
     p.add_argument("--label", default="")
     p.add_argument("--out", default=None, help="append one JSON line per sequence to this file")
     p.add_argument("--profile", default=None, help="cProfile the first initialisation into this file")
+    p.add_argument("--init", default=None, help='initialiser settings changed, JSON (e.g. \'{"rounds": 1}\')')
     a = p.parse_args()
+    init = {k: tuple(v) if isinstance(v, list) else v for k, v in json.loads(a.init or "{}").items()}
     names = {"mismatch": MISMATCH, "dev": DEV, "test": TEST}
     data = [d for part in a.data.split(",") for d in names.get(part, part).split(",") if d]
     for i, d in enumerate(data):
-        row = run_one(d, a.seed, a.tracker, a.threads, a.profile if i == 0 else None)
+        row = run_one(d, a.seed, a.tracker, a.threads, a.profile if i == 0 else None, init)
         row["label"] = a.label
+        row["init"] = init
         print(json.dumps(row), flush=True)
         if a.out:
             with open(a.out, "a") as fh:

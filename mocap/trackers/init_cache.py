@@ -40,18 +40,46 @@ from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Initializer, initial_estimate_of
 
 
+class ProgressLine:
+    """A progress callback ``(stage, fraction)`` shown as one line on stderr (a tqdm bar in
+    percent with the stage beside it, as a run's frame bar); :meth:`close` ends the line."""
+
+    def __init__(self, desc: str):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=100, desc=desc, unit="%", bar_format="{l_bar}{bar}| {elapsed}{postfix}")
+
+    def __call__(self, stage: str, fraction: float) -> None:
+        n = int(round(100 * min(max(fraction, 0.0), 1.0)))
+        self.bar.set_postfix_str(stage, refresh=False)
+        self.bar.update(max(n - self.bar.n, 0))
+
+    def close(self) -> None:
+        self.bar.close()
+
+
 class SilhouetteStart:
     """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`) of
     ``body`` seen by ``rig``, with ``settings`` (:class:`InitSettings`) drawing from ``rng``.
-    info: seconds, the hypotheses and margin, ``initializer_version``."""
+    info: seconds, the hypotheses and margin, ``initializer_version``.
+    progress: called as ``progress(stage, fraction)`` while it runs (fractions non-decreasing,
+    ending at ("done", 1.0)); None: a :class:`ProgressLine` on stderr. Settable after
+    construction (``tracker.initializer(cache).start.progress = ...``)."""
 
-    def __init__(self, body, rig, settings, rng: np.random.Generator):
+    def __init__(self, body, rig, settings, rng: np.random.Generator,
+                 progress: Callable[[str, float], None] | None = None):
         self.body, self.rig, self.settings, self.rng = body, rig, settings, rng
+        self.progress = progress
 
     def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
         t = time.perf_counter()
-        chi, alpha, diag = initialization.initialize_from_silhouettes(self.body, self.rig, frame.masks,
-                                                                     self.rng, self.settings)
+        line = ProgressLine("silhouette start-up") if self.progress is None else None
+        try:
+            chi, alpha, diag = initialization.initialize_from_silhouettes(
+                self.body, self.rig, frame.masks, self.rng, self.settings, progress=self.progress or line)
+        finally:
+            if line is not None:
+                line.close()
         info = {"seconds": time.perf_counter() - t,
                 **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")},
                 "initializer_version": initialization.INITIALIZER_VERSION}

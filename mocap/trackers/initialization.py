@@ -24,6 +24,7 @@ the fine E_S that ranks hypotheses keep the full mesh (the shape changes the who
 and the ranking is where feet, hands and the face decide). What does not change between
 hypotheses is built once: the downscaled masks and their distance transforms (coarse and
 fine), the observed contours, the contour matcher, and one energy per shape and resolution.
+``progress(stage, fraction)`` reports the searches done while it runs.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
 hypothesis, its lead when that was dropped).
@@ -31,8 +32,9 @@ hypothesis, its lead when that was dropped).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
-from tqdm import tqdm
 
 from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel, ShapedBody
@@ -121,10 +123,37 @@ def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.n
     return np.clip(out, limits[:, 0], limits[:, 1])
 
 
+class _Progress:
+    """(stage, fraction) reports of the work done, in units of planned searches (one more unit
+    for the end, so that only :meth:`finish` reports 1.0)."""
+
+    def __init__(self, callback: Callable[[str, float], None] | None, total: float):
+        self.callback, self.total, self.done = callback, float(total) + 1.0, 0.0
+
+    def __call__(self, stage: str, units: float = 0.0) -> None:
+        self.done = min(self.done + units, self.total - 1.0)
+        if self.callback is not None:
+            self.callback(stage, self.done / self.total)
+
+    def drop(self, units: float) -> None:
+        """Planned work that will not run (a pruned hypothesis)."""
+        self.total = max(self.total - units, self.done + 1.0)
+
+    def finish(self) -> None:
+        self.done = self.total
+        if self.callback is not None:
+            self.callback("done", 1.0)
+
+
 def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rng: np.random.Generator,
-                                settings: InitSettings = InitSettings()  # noqa: B008 (frozen)
+                                settings: InitSettings = InitSettings(),  # noqa: B008 (frozen)
+                                progress: Callable[[str, float], None] | None = None
                                 ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(chi (D,), alpha (K,), diagnostics) estimated from one frame's masks (C, H, W)."""
+    """(chi (D,), alpha (K,), diagnostics) estimated from one frame's masks (C, H, W).
+
+    progress: called as ``progress(stage, fraction)`` while it runs (stages "heading",
+    "hypotheses", "refine", "done"; fractions non-decreasing, the last call
+    ("done", 1.0) and no other at 1.0). The results do not depend on it."""
     if masks is None:
         raise ValueError("silhouette initialisation needs masks")
     scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
@@ -209,9 +238,9 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     perm, sign = mirror_map(body)
     hypotheses = []
     keep = min(max(1, settings.keep), len(headings) * (2 if settings.hypotheses > 0 else 1))
-    # 30-70 s on a real recording: a bar counts the searches (headings, then rounds per hypothesis)
-    bar = tqdm(total=len(headings) + settings.rounds * keep + keep, desc="silhouette start-up",
-               unit="search")
+    # 20-70 s on a real recording: the searches (headings, then rounds per hypothesis) reported
+    report = _Progress(progress, len(headings) + settings.rounds * keep + keep)
+    report("heading", 0.0)
     for yaw in headings:
         h = np.zeros(body.num_dofs)
         h[:6] = root_twist(yaw, center[0], center[1])
@@ -222,7 +251,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
         for kind, v in variants:
             hypotheses.append({"heading_deg": float(np.degrees(yaw) % 360), "kind": kind,
                                "energy": fine_energy(alpha, v), "chi": v})
-        bar.update(1)
+        report("hypotheses", 1.0)
     hypotheses.sort(key=lambda d: d["energy"])
     kept = hypotheses[:max(1, settings.keep)]
     C, move = settings.shape_components, float(settings.shape_translate)
@@ -257,7 +286,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             a[:C] = c[:C]
             chi = shifted(chi, c[C:]) if move > 0 else chi
             state[i][1:] = [chi, a]
-            bar.update(1)
+            report("refine", 1.0)
         if len(alive) > 1 and r < settings.rounds - 1:
             for i in alive:
                 state[i][0].setdefault("round_energy", []).append(fine_energy(state[i][2], state[i][1]))
@@ -270,18 +299,17 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
                         state[i][0]["lead_when_pruned"] = lead[i]
                 dropped = sum(lead[i] > settings.prune_margin for i in alive)
                 alive = [i for i in alive if lead[i] <= settings.prune_margin]
-                bar.total -= dropped * (settings.rounds - r)      # their later rounds and final search
-                bar.refresh()
+                report.drop(dropped * (settings.rounds - r))      # their later rounds and final search
     finals = []
     for i, (hyp, chi, a) in enumerate(state):
         if i in alive:
             chi = local(a, chi)
             hyp["final_energy"] = fine_energy(a, chi)
             finals.append((hyp["final_energy"], chi, a))
-            bar.update(1)
+            report("refine", 1.0)
         else:                                  # dropped: its energy when it was dropped
             hyp["final_energy"] = hyp["round_energy"][-1]
-    bar.close()
+    report.finish()
     finals.sort(key=lambda t: t[0])
     _, chi, alpha = finals[0]
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]

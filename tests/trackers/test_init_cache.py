@@ -38,7 +38,7 @@ class CountingStart(SilhouetteStart):
     def __call__(self, frame):
         import unittest.mock
 
-        def compute(body, rig, masks, rng, settings):
+        def compute(body, rig, masks, rng, settings, progress=None):
             self.tracker.calls += 1
             return (rng.normal(size=body.num_dofs), np.zeros(body.num_shape),
                     {"margin": 0.5, "hypotheses": [{"energy": 1.0}], "other": 3})
@@ -116,3 +116,23 @@ def test_the_key_changes_with_the_initialiser_version_and_its_settings(monkeypat
         assert key(changed) != before
     monkeypatch.setattr(initialization, "INITIALIZER_VERSION", INITIALIZER_VERSION - 1)
     assert key(InitSettings()) != before         # the results of version 2 are not served
+
+
+def test_the_start_reports_its_progress_to_the_callback_or_a_progress_line(monkeypatch, capsys):
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    frame = Frame(index=0, masks=np.ones((len(rig.names), 8, 8), bool), images=None, detections=None)
+
+    def compute(body, rig, masks, rng, settings, progress=None):
+        for stage, f in (("heading", 0.0), ("refine", 0.5), ("done", 1.0)):
+            progress(stage, f)
+        return np.zeros(body.num_dofs), np.zeros(body.num_shape), {}
+
+    monkeypatch.setattr(initialization, "initialize_from_silhouettes", compute)
+    seen = []
+    SilhouetteStart(body, rig, None, np.random.default_rng(0),
+                    progress=lambda s, f: seen.append((s, f)))(frame)
+    assert seen == [("heading", 0.0), ("refine", 0.5), ("done", 1.0)]
+    assert "silhouette start-up" not in capsys.readouterr().err
+    SilhouetteStart(body, rig, None, np.random.default_rng(0))(frame)       # None: a line on stderr
+    err = capsys.readouterr().err
+    assert "silhouette start-up" in err and "100%" in err and "done" in err

@@ -91,3 +91,39 @@ def test_the_compiled_shape_energy_equals_the_numpy_one():
     fast = shape_energy(body, rig, chi, target, C, translate=True, compiled=True)(x)
     assert np.ptp(slow) > 0.5                       # shapes far apart score differently
     np.testing.assert_allclose(fast, slow, rtol=1e-5)
+
+
+def test_progress_is_reported_in_stages_with_increasing_fractions_ending_at_one(walk):
+    body, seq = walk
+    cheap = dict(headings=4, hypotheses=1, keep=2, rounds=2, pose_particles=8, pose_layers=2,
+                 shape_particles=6, shape_layers=2, resolution=96, select_resolution=128,
+                 local_iterations=2, partitioned=False)
+    for margin in (None, 0.0):                      # 0.0: a hypothesis is dropped after round 1
+        calls = []
+        initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0),
+                                    InitSettings(prune_margin=margin, **cheap),
+                                    progress=lambda stage, f, out=calls: out.append((stage, f)))
+        stages = [s for s, _ in calls]
+        fractions = np.array([f for _, f in calls])
+        assert calls[-1] == ("done", 1.0) and stages.count("done") == 1
+        assert np.all(np.diff(fractions) >= 0) and np.all((fractions >= 0) & (fractions <= 1))
+        assert fractions[:-1].max() < 1.0           # nothing claims to be finished before the end
+        order = ["heading", "hypotheses", "refine", "done"]
+        assert [order.index(s) for s in stages] == sorted(order.index(s) for s in stages)
+        # one report per step: the heading scan, per heading (2) its searches, per kept
+        # hypothesis and round its pose and shape searches, a final step per hypothesis still
+        # alive, the end
+        refine = 2 * 2 + 2 if margin is None else 2 + 1 + 1
+        assert len(calls) == 1 + 2 + refine + 1
+
+
+def test_the_progress_callback_does_not_change_the_result(walk):
+    body, seq = walk
+    cheap = InitSettings(headings=4, hypotheses=1, keep=1, rounds=1, pose_particles=8, pose_layers=2,
+                         shape_particles=6, shape_layers=2, resolution=96, select_resolution=128,
+                         local_iterations=2, partitioned=False)
+    quiet = initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), cheap)
+    told = initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), cheap,
+                                       progress=lambda stage, f: None)
+    np.testing.assert_array_equal(quiet[0], told[0])
+    np.testing.assert_array_equal(quiet[1], told[1])
