@@ -57,8 +57,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output folder (new, or one written by mocap capture)")
     p.add_argument("--people", default="1", help="1 (default: the single-person tracker), N or auto "
                                                  "(several people: tracker=marker_people)")
-    p.add_argument("--tracker", default=None, help="tracker config name (conf/tracker; default marker_apf, "
-                                                   "marker_people for several people)")
+    p.add_argument("--tracker", default=None, help="tracker preset (mocap/trackers/presets.py; default "
+                                                   "marker_apf, marker_people for several people)")
     p.add_argument("--calibration", default=None, help="calibration file (default: the single *.toml in "
                                                         "the recording folder or its calibration/)")
     p.add_argument("--calibrate", default=None, choices=CALIBRATE,
