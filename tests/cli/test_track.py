@@ -94,6 +94,7 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
               if o.split("=")[0][2:] not in point]
     if tracker == "local":
         budget = []
+    budget.append("oracle.enabled=false")     # the oracles' fits are tested on their own (tests/eval)
     if cfg.init.mode == "tracker":           # a self-initialising sweep: a cheap initialisation
         budget += [f"init.cache={tmp_path / 'cache'}", f"oracle.cache={tmp_path / 'oracles'}"]
         if not tracker.startswith("marker"):  # the marker tracker starts from its detections
