@@ -24,7 +24,6 @@ run again. docs/capture.md has the details and measured figures.
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import sys
 import time
@@ -252,13 +251,6 @@ def _fingerprint(path: Path | str | None) -> list | None:
     return [str(p), st.st_size, st.st_mtime_ns]
 
 
-def _plan_detection(source: Path, out: Path, *, people, **kwargs):
-    """mocap.video.detect.plan_detection for ``people`` (1, N or "auto")."""
-    from mocap.video.detect import plan_detection
-
-    return plan_detection(source, out, people=people, **kwargs)
-
-
 # --- the stages -------------------------------------------------------------------------------
 
 
@@ -325,10 +317,12 @@ def detection_plan(a, inputs: Inputs, out: Path, people, calibration: Path, forc
     were detected with other settings and not ``force``."""
     import warnings
 
+    from mocap.video.detect import plan_detection
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            return _plan_detection(inputs.source, out / "detect", people=people,
+            return plan_detection(inputs.source, out / "detect", people=people,
                                    videos=str(inputs.videos.relative_to(inputs.source)),
                                    calibration=str(Path(calibration).resolve()), start=a.start, stop=a.stop,
                                    step=a.step, scale=a.scale, force=force)
@@ -385,31 +379,21 @@ def run_track(overrides: list[str], tracker: str) -> None:
 
 
 def run_export(out: Path, formats: list[str]) -> list[str]:
-    """Every format into ``out/export``: ``motion.<ext>``. Several people: where the export
-    writes several people (``mocap.run_folder.export.export_files``), a BVH per person
-    (``motion_p<id>.bvh``) and one TRC / C3D / GLB with everyone; else one file per person and
-    format (``person<id>.<ext>``)."""
+    """Every format into ``out/export``: ``motion.<ext>``; several people
+    (:func:`mocap.run_folder.export.export_files`): a BVH per person (``motion_p<id>.bvh``) and one
+    TRC / C3D / GLB with everyone."""
     from mocap.export import FORMATS
-    from mocap.run_folder import export as exporting
+    from mocap.run_folder.export import export_files
 
     run = out / "track"
-    metrics = json.loads((run / "metrics.json").read_text())
     folder = out / "export"
     folder.mkdir(exist_ok=True)
     for old in folder.iterdir():        # an earlier run's files (another motion, other formats)
         if old.is_file():
             old.unlink()
-    people = metrics.get("people")
-    export_files = getattr(exporting, "export_files", None)
     written: list[Path] = []
     for fmt in formats:
-        if export_files is not None:
-            written += export_files(run, fmt, folder / f"motion{FORMATS[fmt]}", overwrite=True)
-        elif isinstance(people, list):
-            written += [exporting.export_run(run, fmt, folder / f"person{pid}{FORMATS[fmt]}", overwrite=True,
-                                             person=int(pid)) for pid in people]
-        else:
-            written.append(exporting.export_run(run, fmt, folder / f"motion{FORMATS[fmt]}", overwrite=True))
+        written += export_files(run, fmt, folder / f"motion{FORMATS[fmt]}", overwrite=True)
     return [str(Path(p).relative_to(out)) for p in written]
 
 
@@ -477,8 +461,6 @@ def main(argv: list[str] | None = None) -> int:
     inputs, record = check_inputs(a)
     out = Path(a.out)
     formats = [f.strip() for f in a.formats.split(",") if f.strip()]
-    if people != 1:         # refused now, before anything is written, where detection cannot do it
-        _plan_detection_available(people)
     from mocap.run_folder import capture as plan
     from mocap.run_folder.lock import run_lock
 
@@ -520,11 +502,3 @@ def main(argv: list[str] | None = None) -> int:
     for line in summary_lines(out, summary):
         _say(line)
     return 0
-
-
-def _plan_detection_available(people) -> None:
-    from mocap.video.detect import plan_detection
-
-    if "people" not in inspect.signature(plan_detection).parameters:
-        raise ValueError(f"--people {people}: several people from video is not available in this mocap "
-                         "(mocap detect finds one person per view): use --people 1")
