@@ -21,7 +21,6 @@ false positives for the tracker).
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import json
 import re
@@ -34,8 +33,7 @@ import numpy as np
 from mocap.body.skeletons import LAYOUT_BONES, LAYOUTS
 from mocap.cameras import Rig, load_calibration, project, triangulate
 from mocap.data.sequence import Detections, Sequence
-from mocap.data.source_settings import OpenPoseSource
-from mocap.settings import settings_from_mapping
+from mocap.data.source_settings import OpenPoseSource, recording_settings
 
 
 class OpenPoseFormatError(ValueError):
@@ -495,15 +493,8 @@ def openpose_sequence(*, body=None, **keys) -> Sequence:
     """Hydra entry point (``conf/data/pose2sim_demo.yaml``); ``body`` is accepted and unused;
     ``keys``: the settings that differ from :class:`~mocap.data.source_settings.OpenPoseSource`'s
     defaults. An unknown setting is refused by name (before any file is read)."""
-    known = [f.name for f in dataclasses.fields(OpenPoseSource) if f.name != "path"]
-    unknown = sorted(set(keys) - {"path", *known})
-    if unknown:
-        raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a keypoint recording "
-                         f"(settings: path, {', '.join(known)})")
-    s = settings_from_mapping(OpenPoseSource, keys)
-    if s.path is None:
-        raise ValueError("setting data.path is missing: the recording folder (data.path=/path/to/recording)")
-    return load_openpose_sequence(s.path, **{k: getattr(s, k) for k in known})
+    path, options = recording_settings(OpenPoseSource, keys, "keypoint recording")
+    return load_openpose_sequence(path, **options)
 
 
 def convert_pose2sim(src: str | Path, out: str | Path, *, person: str = "all", overwrite: bool = False,

@@ -8,9 +8,11 @@ one-line error naming the key, before any work. Imports none of the numeric stac
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
 
 from mocap.checks import check_fps
+from mocap.settings import settings_from_mapping
 
 
 @dataclass(frozen=True)
@@ -158,3 +160,19 @@ SOURCES = {"mocap.data.sources.synthetic_sequence": SyntheticSource,
            "mocap.data.crowd.crowd_sequence": CrowdSource,
            "mocap.data.openpose.openpose_sequence": OpenPoseSource,
            "mocap.video.sequence.video_sequence": VideoSource}
+
+
+def recording_settings(cls: type, keys: Mapping, what: str) -> tuple[str, dict]:
+    """(path, the other settings as keyword arguments) of a recording-folder source ``cls``
+    (:class:`OpenPoseSource`, :class:`VideoSource`) from a config's keys that differ from its
+    defaults: an unknown key refused by name (``what``: the kind of recording, for the message),
+    a missing ``path`` named, before any file is read."""
+    known = [f.name for f in fields(cls) if f.name != "path"]
+    unknown = sorted(set(keys) - {"path", *known})
+    if unknown:
+        raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a {what} "
+                         f"(settings: path, {', '.join(known)})")
+    s = settings_from_mapping(cls, keys)
+    if s.path is None:
+        raise ValueError("setting data.path is missing: the recording folder (data.path=/path/to/recording)")
+    return s.path, {k: getattr(s, k) for k in known}

@@ -13,7 +13,6 @@ see :func:`mocap.video.segmentation.segment_sequence`).
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -24,8 +23,7 @@ from mocap.cameras import load_calibration
 from mocap.data.openpose import _find_calibration, load_openpose_sequence
 from mocap.data.sequence import Detections, Sequence
 from mocap.data.sequence_io import gt_opted_out
-from mocap.data.source_settings import VideoSource
-from mocap.settings import settings_from_mapping
+from mocap.data.source_settings import VideoSource, recording_settings
 from mocap.video.frames import VideoFrames, frame_range, match_videos, video_info
 
 _S = VideoSource()      # the defaults
@@ -163,15 +161,8 @@ def video_sequence(*, body=None, **keys) -> Sequence:
     """Hydra entry point (``conf/data/pose2sim_demo_video.yaml``); ``body`` is unused; ``keys``:
     the settings that differ from :class:`~mocap.data.source_settings.VideoSource`'s defaults.
     An unknown setting is refused by name (before any file is read)."""
-    known = [f.name for f in dataclasses.fields(VideoSource) if f.name != "path"]
-    unknown = sorted(set(keys) - {"path", *known})
-    if unknown:
-        raise ValueError(f"unknown data setting(s) {', '.join(unknown)} for a video recording "
-                         f"(settings: path, {', '.join(known)})")
-    s = settings_from_mapping(VideoSource, keys)
-    if s.path is None:
-        raise ValueError("setting data.path is missing: the recording folder (data.path=/path/to/recording)")
-    return load_video_sequence(s.path, **{k: getattr(s, k) for k in known})
+    path, options = recording_settings(VideoSource, keys, "video recording")
+    return load_video_sequence(path, **options)
 
 
 def load_background_clip(folder: str | Path, seq: Sequence, max_frames: int = 60) -> np.ndarray:
