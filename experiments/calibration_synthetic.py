@@ -27,7 +27,13 @@ import numpy as np
 import mocap as mc
 from mocap.calibration.boards import Board
 from mocap.calibration.compare import compare_rigs
-from mocap.calibration.synthetic import board_poses_facing, keypoints_through, render_board, walking_rig
+from mocap.calibration.synthetic import (
+    board_poses_facing,
+    keypoints_through,
+    openpose_keypoints,
+    render_board,
+    walking_rig,
+)
 from mocap.cameras import load_calibration, project, save_calibration
 from mocap.data.openpose import LAYOUTS, write_openpose_folders
 from mocap_cli.main import main as mocap
@@ -76,10 +82,7 @@ def main() -> None:
     xy, conf = keypoints_through(rig, J, 1.0)
     pose = out / "pose"
     if not pose.exists():         # the 19 joints in BODY_25B's first 19 slots
-        kp = np.zeros((len(rig), len(J), 25, 3))
-        kp[:, :, :J.shape[1], :2] = xy.reshape(len(rig), len(J), -1, 2)
-        kp[:, :, :J.shape[1], 2] = conf.reshape(len(rig), len(J), -1)
-        write_openpose_folders(pose, rig.names, kp)
+        write_openpose_folders(pose, rig.names, openpose_keypoints(xy, conf, len(J)))
     hip, ankle = labels.index("l_hip"), labels.index("l_ankle")
     leg = float(np.median(np.linalg.norm(J[:, hip] - J[:, ankle], axis=-1)))
     # the walking body's 19 joints were written in BODY_25B's first slots: name the leg by slot

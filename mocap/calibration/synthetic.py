@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 
 from mocap.calibration.boards import Board
-from mocap.cameras import Camera
+from mocap.cameras import Camera, project, ring_rig
 
 
 def render_board(camera: Camera, board: Board, world_from_board: np.ndarray, supersample: int = 3,
@@ -93,8 +93,6 @@ def board_poses_facing(rng: np.random.Generator, n: int, board: Board, centre: n
 def walking_rig():
     """The known rig of the keypoint-calibration answers: four 1280x960 cameras with lens
     distortion on a 3.5 m ring at 1.5 m height, looking at a person's hips."""
-    from mocap.cameras import ring_rig
-
     return ring_rig(4, 3.5, 1.5, 1280, 960, fov_deg=50, look_at=(0, 0, 0.9), dist=[-0.05, 0.02, 0, 0, 0],
                     start_deg=30)
 
@@ -103,10 +101,20 @@ def keypoints_through(rig, joints: np.ndarray, noise_px: float,
                       seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """joints (F, J, 3) seen by ``rig`` as a detector would: (xy (C, F*J, 2) the projections plus
     N(0, noise_px) pixels, confidence (C, F*J) 1 inside the image, 0 outside)."""
-    from mocap.cameras import project
-
     px = np.transpose(project(rig, joints), (1, 0, 2, 3)).reshape(len(rig), -1, 2)
     xy = px + np.random.default_rng(seed).normal(0, noise_px, px.shape)
     W, H = rig.sizes[:, 0:1], rig.sizes[:, 1:2]
     inside = (xy[..., 0] > 0) & (xy[..., 0] < W) & (xy[..., 1] > 0) & (xy[..., 1] < H)
     return xy, inside.astype(float)
+
+
+def openpose_keypoints(xy: np.ndarray, confidence: np.ndarray, frames: int,
+                       num_keypoints: int = 25) -> np.ndarray:
+    """:func:`keypoints_through`'s (xy (C, F*J, 2), confidence (C, F*J)) as OpenPose keypoints
+    (C, F, num_keypoints, 3): the J points in the layout's first J slots (the rest confidence 0),
+    what :func:`mocap.data.openpose.write_openpose_folders` writes."""
+    C = len(xy)
+    xy, confidence = np.reshape(xy, (C, frames, -1, 2)), np.reshape(confidence, (C, frames, -1))
+    out = np.zeros((C, frames, num_keypoints, 3))
+    out[:, :, :xy.shape[2], :2], out[:, :, :xy.shape[2], 2] = xy, confidence
+    return out

@@ -8,7 +8,13 @@ import functools
 import numpy as np
 
 from mocap.calibration.boards import Board, detect_board
-from mocap.calibration.synthetic import board_poses_facing, keypoints_through, render_board, walking_rig
+from mocap.calibration.synthetic import (
+    board_poses_facing,
+    keypoints_through,
+    openpose_keypoints,
+    render_board,
+    walking_rig,
+)
 from mocap.cameras import Rig, look_at_camera
 from mocap.data.openpose import write_openpose_folders
 
@@ -79,8 +85,4 @@ def walking_keypoints(rig: Rig, noise_px: float, seed: int = 0) -> tuple[np.ndar
 
 def openpose_folders(root, rig: Rig, xy: np.ndarray, conf: np.ndarray, frames: int) -> None:
     """OpenPose JSON per camera: the walking body's 19 joints in BODY_25B's first 19 slots."""
-    C = len(rig)
-    xy, conf = xy.reshape(C, frames, -1, 2), conf.reshape(C, frames, -1)
-    kp = np.zeros((C, frames, 25, 3))
-    kp[:, :, :xy.shape[2], :2], kp[:, :, :xy.shape[2], 2] = xy, conf
-    write_openpose_folders(root, rig.names, kp)
+    write_openpose_folders(root, rig.names, openpose_keypoints(xy, conf, frames))
