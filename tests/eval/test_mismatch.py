@@ -92,10 +92,10 @@ def test_oracle_reaches_ground_truth_made_by_our_own_model(body, motion):
     np.testing.assert_allclose(body.shaped(fit.alpha).joints(fit.chi), J, atol=5e-4)
 
 
-def test_oracle_uses_the_skeleton_mapping_and_validity(body):
-    """HumanEva-named ground truth in another order, a joint missing in some frames; its
-    pelvis, thorax and head are landmarks of ours (mid-hip, neck base, head centre), fitted
-    like the joints."""
+def humaneva_truth(body):
+    """Ground truth in HumanEva's names and another order, from our own walk (8 frames): its
+    pelvis, thorax and head are landmarks of ours (mid-hip, neck base, head centre); the left
+    wrist is missing (garbage, flagged invalid) in frames 2-4. Returns (names, joints, valid)."""
     from mocap.body.catalogue import landmarks_with
     from mocap.body.skeletons import SKELETONS
     from mocap.eval.by_name import estimate_points
@@ -111,6 +111,13 @@ def test_oracle_uses_the_skeleton_mapping_and_validity(body):
     valid = np.ones(gt.shape[:2], bool)
     valid[2:5, gt_names.index("lwri")] = False
     gt[2:5, gt_names.index("lwri")] = 100.0                   # garbage where invalid
+    return gt_names, gt, valid
+
+
+def test_oracle_uses_the_skeleton_mapping_and_validity(body):
+    """HumanEva-named ground truth in another order, a joint missing in some frames
+    (:func:`humaneva_truth`), fitted like our own joints."""
+    gt_names, gt, valid = humaneva_truth(body)
     fit = fit_oracle(body, gt_names, gt, valid, "humaneva15")
     assert fit.metrics["raw_mm"] < 1.0
     assert set(fit.metrics["offsets_mm"]) == set(gt_names)
@@ -128,19 +135,7 @@ def test_tracked_oracle_reaches_ground_truth_made_by_our_own_model(body, motion)
 
 
 def test_tracked_oracle_uses_the_skeleton_mapping_and_validity(body):
-    from mocap.body.catalogue import landmarks_with
-    from mocap.eval.by_name import SKELETONS, estimate_points
-
-    chi, alpha, J = own_joints(body, "walk", 8)
-    table = SKELETONS["humaneva15"]
-    gt_names = list(table)[::-1]
-    marks = landmarks_with(body, list(table.values()))
-    pts = estimate_points(body.joint_names, J, marks.names,
-                          marks.positions(body.shaped(alpha), chi).astype(np.float64))
-    gt = np.stack([pts[table[n]] for n in gt_names], axis=1)
-    valid = np.ones(gt.shape[:2], bool)
-    valid[2:5, gt_names.index("lwri")] = False
-    gt[2:5, gt_names.index("lwri")] = 100.0                   # garbage where invalid
+    gt_names, gt, valid = humaneva_truth(body)
     fit = fit_oracle(body, gt_names, gt, valid, "humaneva15", method="tracked")
     assert fit.metrics["raw_mm"] < 1.0
     assert set(fit.metrics["offsets_mm"]) == set(gt_names)
