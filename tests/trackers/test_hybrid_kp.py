@@ -15,12 +15,18 @@ FAST = {"local": {"iterations": 3}, "apf": {"particles": 10, "layers": 3}}
 ARM = ("l_elbow", "l_wrist")
 
 
-@pytest.fixture(scope="module")
-def seq(body):
+def keypoint_walk(body, frames: int):
+    """A small walk (6 views, 200x150) with silhouettes and labelled 2D detections: 1 px noise,
+    10 % false positives, 90 % detected."""
     rig = ring_rig(6, 3.5, 1.5, 200, 150, fov_deg=45, look_at=(0, 0, 0.9))
-    return make_synthetic(body, rig, motion="walk", frames=5, fps=25, seed=0, images=False,
+    return make_synthetic(body, rig, motion="walk", frames=frames, fps=25, seed=0, images=False,
                           detections={"enabled": True, "labelled": True, "occlusion": False,
                                       "noise_px": 1.0, "false_positive_rate": 0.1, "detection_rate": 0.9})
+
+
+@pytest.fixture(scope="module")
+def seq(body):
+    return keypoint_walk(body, 5)
 
 
 def folded_arm(body, chi):

@@ -8,13 +8,12 @@ import pytest
 
 from mocap.body.bone_lengths import length_model
 from mocap.body.catalogue import make_landmark_set, probe_poses, rest_point_basis, rigid_pairs
-from mocap.cameras import ring_rig
-from mocap.data.generate import make_synthetic
 from mocap.trackers.keypoint_cue import shape_from_frames
 from mocap.trackers.markers.settings import MarkerInit
 from mocap.trackers.markers.startup import shape_from_landmarks
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of, track_sequence
+from tests.trackers.test_hybrid_kp import keypoint_walk
 
 FAST = {"local": {"iterations": 3}, "apf": {"particles": 10, "layers": 3}}
 LABELS = ("l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow", "r_wrist", "l_hip", "l_knee",
@@ -71,10 +70,7 @@ def test_a_landmark_pair_seen_in_no_frame_leaves_the_fit_to_the_others(body):
 
 @pytest.fixture(scope="module")
 def seq(body):
-    rig = ring_rig(6, 3.5, 1.5, 200, 150, fov_deg=45, look_at=(0, 0, 0.9))
-    return make_synthetic(body, rig, motion="walk", frames=6, fps=25, seed=0, images=False,
-                          detections={"enabled": True, "labelled": True, "occlusion": False,
-                                      "noise_px": 1.0, "false_positive_rate": 0.1, "detection_rate": 0.9})
+    return keypoint_walk(body, 6)
 
 
 def run(body, seq, **keypoints):
