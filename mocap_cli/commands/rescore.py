@@ -26,7 +26,6 @@ import json
 import subprocess
 import sys
 from dataclasses import replace
-from functools import partial
 from pathlib import Path
 
 from mocap.run_folder.lock import RunFolderBusy, run_lock
@@ -58,8 +57,7 @@ def rescore(run: Path, version: str, dry_run: bool = False,
     """(old, new) accuracy figures of one run; metrics.json (and the manifest's checksum of it)
     rewritten unless ``dry_run``. A folder that is not a complete run is refused. The oracles are
     fitted as the run's stored ``oracle`` settings say, kept in ``oracle_cache`` where given."""
-    from mocap.eval.run_metrics import accuracy_metrics, oracle_settings
-    from mocap.export.motion import load_motion
+    from mocap.eval.run_metrics import oracle_settings
     from mocap.run_folder import run_body, run_sequence, write_json
 
     require_complete(run)
@@ -74,12 +72,10 @@ def rescore(run: Path, version: str, dry_run: bool = False,
     if motion_file_facts(run / "motion.npz").get("format") == PEOPLE_FORMAT:
         new, F = _rescore_people(run, body, seq)
     else:
-        if seq.gt is None:
-            raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
         oracle = oracle_settings(metrics["config"].get("oracle"))
         if oracle_cache is not None:
             oracle = replace(oracle, cache=str(oracle_cache))
-        new, F = _rescore_person(run, body, seq, load_motion, partial(accuracy_metrics, oracle=oracle))
+        new, F = _rescore_person(run, body, seq, oracle)
     old = {k: metrics[k] for k in new if k in metrics}
     if not dry_run:
         previous = {k: old[k] for k in SUMMARY if k in old}
@@ -110,12 +106,18 @@ def _rescore_people(run: Path, body, seq) -> tuple[dict, int]:
     return {k: scores[k] for k in PEOPLE_ACCURACY if k in scores}, int(arrays["live"].shape[0])
 
 
-def _rescore_person(run: Path, body, seq, load_motion, accuracy_metrics) -> tuple[dict, int]:
+def _rescore_person(run: Path, body, seq, oracle) -> tuple[dict, int]:
+    """The accuracy of a one-person run (the oracles fitted as ``oracle`` says), and its frames."""
+    from mocap.eval.run_metrics import accuracy_metrics
+    from mocap.export.motion import load_motion
+
+    if seq.gt is None:
+        raise ValueError(f"{run}: its data {seq.name!r} has no ground truth to score against")
     motion = load_motion(run)
     F = motion.num_frames
     if motion.chi.shape[1] != body.num_dofs:
         raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
-    return accuracy_metrics(body, seq, motion.chi, motion.alpha), F
+    return accuracy_metrics(body, seq, motion.chi, motion.alpha, oracle), F
 
 
 def main(argv: list[str] | None = None) -> int:
