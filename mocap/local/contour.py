@@ -17,7 +17,7 @@ moved shows up as a tail of long matches, which must survive the rejection.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -42,10 +42,13 @@ from mocap.render import get_rasterizer
 @dataclass(frozen=True)
 class ObservedContours:
     """Per view: contour points (M, 2) in camera pixels and their nearest-point index (None:
-    no contour)."""
+    no contour). ``lines``: the Plücker lines of the points, per rig (filled by
+    :meth:`ContourMatcher.observed_lines`: the observed outline is the same for every
+    iteration of a frame, so its rays are back-projected once)."""
 
     points: list[np.ndarray]
     trees: list[NearestPoints | None]
+    lines: dict = field(default_factory=dict, compare=False, repr=False)
 
 
 def observed_contours(masks: np.ndarray) -> ObservedContours:
@@ -180,20 +183,24 @@ class ContourMatcher:
             out.append(np.flatnonzero(mark))
         return out
 
-    def _lines(self, views: list[tuple[int, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
-        """Plücker lines (directions, moments; (M, 3) each, in order) of the observed pixels
-        q (M_c, 2) of the listed views (c, q): back-projected for all views in one call (16
-        calls per iteration cost more than the rays), the views padded to one length with
-        their principal point."""
-        n = max(len(q) for _, q in views)
+    def observed_lines(self, observed: ObservedContours) -> tuple[list[np.ndarray], list[np.ndarray]]:
+        """Plücker lines (directions, moments; (M_c, 3) each per view) of every observed
+        contour point, back-projected in one call for all views (the views padded to one
+        length with their principal point), once per frame: kept in ``observed.lines``."""
+        cached = observed.lines.get(id(self.rig))
+        if cached is not None and cached[0] is self.rig:
+            return cached[1], cached[2]
+        n = max((len(q) for q in observed.points), default=0)
         if n == 0:
-            return np.zeros((0, 3)), np.zeros((0, 3))
+            return [np.zeros((0, 3))] * len(observed.points), [np.zeros((0, 3))] * len(observed.points)
         px = np.broadcast_to(self.rig.K[:, :2, 2][:, None, :], (len(self.rig), n, 2)).copy()
-        for c, q in views:
+        for c, q in enumerate(observed.points):
             px[c, : len(q)] = q
         d, mo = plucker_from_rays(*pixel_rays(self.rig, px))
-        return (np.concatenate([d[c, : len(q)] for c, q in views]),
-                np.concatenate([mo[c, : len(q)] for c, q in views]))
+        lines = ([d[c, : len(q)] for c, q in enumerate(observed.points)],
+                 [mo[c, : len(q)] for c, q in enumerate(observed.points)])
+        observed.lines[id(self.rig)] = (self.rig, *lines)
+        return lines
 
     def __call__(self, verts: np.ndarray, observed: ObservedContours) -> tuple[PointLines, dict]:
         """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
@@ -203,8 +210,9 @@ class ContourMatcher:
         cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
         px_small, depth_small = pixels_from_camera(self.small, cam_xyz)
         model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
-        X, limbs, Q = [], [], []
+        X, limbs, D, M = [], [], [], []
         counts, empty = [], []
+        obs_d, obs_m = self.observed_lines(observed)
         generators = self.contour_vertices(verts, self.rig.centers)
         for c, cam in enumerate(self.view_rigs):
             tree = observed.trees[c]
@@ -231,23 +239,24 @@ class ContourMatcher:
             # point, and each observed contour point to its closest model contour point, so
             # that observed outline no model part explains still pulls the model
             dist, idx = tree.query(p)
-            obs_pts = observed.points[c][:: self.observed_stride]
-            back_dist, back_idx = NearestPoints(p).query(obs_pts)
+            obs_ids = np.arange(0, len(observed.points[c]), self.observed_stride)
+            back_dist, back_idx = NearestPoints(p).query(observed.points[c][obs_ids])
             vid = np.concatenate([vid, vid[back_idx]])
-            q = np.concatenate([observed.points[c][idx], obs_pts])
+            oid = np.concatenate([idx, obs_ids])           # the observed points paired
             dist = np.concatenate([dist, back_dist])
             thr = min(max(self.reject_factor * percentile90(dist), self.min_reject_px),
                       self.max_distance_px)
             keep = dist <= thr
-            vid, q = vid[keep], q[keep]
+            vid, oid = vid[keep], oid[keep]
             X.append(verts[vid])
             limbs.append(self.body.part_labels[vid])
-            Q.append((c, q))
+            D.append(obs_d[c][oid])
+            M.append(obs_m[c][oid])
             counts.append(int(len(vid)))
         if X:
             pts = np.concatenate(X).astype(np.float64)
-            D, M = self._lines(Q)
-            corr = PointLines(pts, np.concatenate(limbs), D, M, np.ones(len(pts)))
+            corr = PointLines(pts, np.concatenate(limbs), np.concatenate(D), np.concatenate(M),
+                              np.ones(len(pts)))
         else:
             z = np.zeros((0, 3))
             corr = PointLines(z, np.zeros(0, int), z, z, np.zeros(0))
