@@ -7,12 +7,15 @@ the local tracker's time; points on an image outline are spread evenly over a pl
 buckets of a few pixels answer the same question in a few dozen operations.
 
 Each query scans the rings of buckets around its own (the bucket of the query clamped into
-the grid) outwards; after ring r every point not yet seen lies at least r x cell away (in
-x or y), so the scan stops once the best distance is below that. A query still unsettled
-after ``max_ring`` rings (far from every point: a lost limb, a pose hypothesis far off) is
-answered by a k-d tree instead. The answer is the exact nearest point (ties, which need a
-query exactly equidistant from two points, go to the lower index on the grid);
-distances are Euclidean. Without numba every query runs on cKDTree (said once).
+the grid) outwards, a ring's top and bottom rows each as one run of the points sorted by
+bucket; every point not yet seen lies in a bucket outside the scanned square, at least the
+query's distance to the nearest side of the square that is not the grid's edge away, so
+the scan stops once the best distance is below that. A query still unsettled after
+``max_ring`` rings (far from every point: a lost limb, a pose hypothesis far off) is
+answered by brute force over all points instead. The answer is the exact nearest point
+(ties, which need a query exactly equidistant from two points, go to the lowest index);
+distances are Euclidean. Without numba every query runs on cKDTree (said once; its ties
+may go to another of the equidistant points).
 """
 
 from __future__ import annotations
@@ -87,7 +90,32 @@ if HAVE_NUMBA:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _buckets(points, cell):
+    def nearest_on_grid(xs, ys, ids, start, origin_x, origin_y, cell, nx, ny, max_ring, points,
+                        queries, dist, idx):
+        """:func:`_query`, and the queries it leaves unsettled (far from every point) by
+        brute force over points (M, 2) (ties to the lower id): the exact nearest point of
+        every query, for compiled callers (no k-d tree)."""
+        _query(xs, ys, ids, start, origin_x, origin_y, cell, nx, ny, max_ring, queries, dist, idx)
+        for n in range(queries.shape[0]):
+            if idx[n] >= 0:
+                continue
+            best = np.inf
+            best_i = -1
+            for i in range(points.shape[0]):
+                dx = points[i, 0] - queries[n, 0]
+                dy = points[i, 1] - queries[n, 1]
+                d = dx * dx + dy * dy
+                if d < best:
+                    best = d
+                    best_i = i
+            dist[n] = np.sqrt(best)
+            idx[n] = best_i
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def bucket_grid(points, cell):
         """The grid over points (M, 2): cell (the argument where > 0, else ~2 points per
         bucket), nx, ny, origin (x, y), and the point ids ordered by bucket (a stable
         counting sort: the order of a stable argsort) with each bucket's start offset.
@@ -147,7 +175,7 @@ class NearestPoints:
         if not self.compiled:
             warn_once("nearest", "contour matching queries a k-d tree (cKDTree), slower")
             return
-        cell, self.nx, self.ny, ox, oy, self.order, self.start, self.xs, self.ys = _buckets(
+        cell, self.nx, self.ny, ox, oy, self.order, self.start, self.xs, self.ys = bucket_grid(
             pts, -1.0 if cell is None else float(cell))
         self.cell = float(cell)
         self.origin = np.array([ox, oy])
@@ -160,17 +188,14 @@ class NearestPoints:
             return self.tree.query(q)
         dist = np.empty(len(q))
         idx = np.empty(len(q), np.int64)
-        _query(self.xs, self.ys, self.order, self.start, float(self.origin[0]),
-               float(self.origin[1]), self.cell, self.nx, self.ny, self.max_ring, q, dist, idx)
-        far = idx < 0
-        if far.any():
-            dist[far], idx[far] = self.tree.query(q[far])
+        nearest_on_grid(self.xs, self.ys, self.order, self.start, float(self.origin[0]),
+                        float(self.origin[1]), self.cell, self.nx, self.ny, self.max_ring,
+                        self.points, q, dist, idx)
         return dist, idx
 
     @property
     def tree(self) -> cKDTree:
-        """The k-d tree over the same points (built on first use): far queries, and the
-        whole answer without numba."""
+        """The k-d tree over the same points (built on first use): the answer without numba."""
         if self._tree is None:
             self._tree = cKDTree(self.points)
         return self._tree
