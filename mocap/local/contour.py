@@ -137,6 +137,34 @@ if HAVE_NUMBA:
 if HAVE_NUMBA:
 
     @njit(cache=True)
+    def _pixels_in_two_rigs(X, K, dist, distort, skew, out):
+        """:func:`~mocap.cameras.pixels_from_camera` of camera coordinates X (C, 3, V) in two
+        rigs that share R, t and distortion (the full-size one and the visibility one) in one
+        pass: K (2, C, 3, 3), dist (C, 5), distort (apply the distortion model: some view
+        has one), skew (2,) (add K[0, 1] y) -> out (2, C, V, 2); its arithmetic, op for op."""
+        for c in range(X.shape[0]):
+            k1, k2, p1, p2, k3 = dist[c, 0], dist[c, 1], dist[c, 2], dist[c, 3], dist[c, 4]
+            for v in range(X.shape[2]):
+                inv_z = 1.0 / X[c, 2, v]
+                x = X[c, 0, v] * inv_z
+                y = X[c, 1, v] * inv_z
+                if distort:
+                    x2, y2, xy = x * x, y * y, x * y
+                    r2 = x2 + y2
+                    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+                    x, y = (x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2),
+                            y * radial + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy)
+                for r in range(2):
+                    u = K[r, c, 0, 0] * x + K[r, c, 0, 2]
+                    if skew[r]:
+                        u += K[r, c, 0, 1] * y
+                    out[r, c, v, 0] = u
+                    out[r, c, v, 1] = K[r, c, 1, 1] * y + K[r, c, 1, 2]
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
     def _pixel_boxes(px, h, w, out):
         """out[c] = (x, y, width, height): the pixel box of view c's finite points px[c] (V, 2)
         (grown to whole pixels, clipped to the h x w image; width 0: none inside). It holds
@@ -314,6 +342,8 @@ class ContourMatcher:
         self.small = rig.scaled(visibility_scale)
         w, h = (int(v) for v in self.small.sizes[0])
         self.small_size = (h, w)
+        self.two_K = np.ascontiguousarray(np.stack([self.small.K, rig.K]), np.float64)   # (2, C, 3, 3)
+        self.two_skew = np.array([np.any(self.small.K[:, 0, 1]), np.any(rig.K[:, 0, 1])])
         self.raster = get_rasterizer(body.faces, body.num_vertices)
         r = int(np.ceil(visibility_tolerance_px))
         self.kernel3 = np.ones((3, 3), np.uint8)
@@ -321,6 +351,18 @@ class ContourMatcher:
         self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
         self.max_distance_px = max_distance * float(rig.sizes[0][1])
         self.stride, self.observed_stride = stride, observed_stride
+
+    def pixels(self, cam_xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Camera coordinates (C, 3, V) -> pixels (C, V, 2) in the visibility rig and in the
+        rig, and the depth (C, V) (compiled in one pass where the coordinates are float64:
+        :func:`_pixels_in_two_rigs`, the same floats)."""
+        if not (HAVE_NUMBA and cam_xyz.dtype == np.float64):
+            px_small, depth = pixels_from_camera(self.small, cam_xyz)
+            return px_small, pixels_from_camera(self.rig, cam_xyz)[0], depth
+        out = np.empty((2, cam_xyz.shape[0], cam_xyz.shape[2], 2))
+        _pixels_in_two_rigs(np.ascontiguousarray(cam_xyz), self.two_K, self.rig.dist.astype(np.float64),
+                            bool(np.any(self.rig.dist)), self.two_skew, out)
+        return out[0], out[1], cam_xyz[:, 2, :]
 
     def contour_marks(self, verts: np.ndarray, centers: np.ndarray) -> np.ndarray:
         """(C, V) bool: the vertices on the contour generator seen from each camera centre
@@ -453,8 +495,7 @@ class ContourMatcher:
         h, w = self.small_size
         # camera coordinates once: the visibility rig (rescaled) shares R, t with the rig
         cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
-        px_small, depth_small = pixels_from_camera(self.small, cam_xyz)
-        px, _ = pixels_from_camera(self.rig, cam_xyz)                   # (C, V, 2)
+        px_small, px, depth_small = self.pixels(cam_xyz)
         model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
         visible = self.visible_contour_vertices(verts, px_small, model_masks)
         vid, oid, counts = self.pairs(px, visible, observed)

@@ -245,3 +245,25 @@ def test_observed_lines_are_the_rays_of_the_contour_pixels(body, walk):
         np.testing.assert_allclose(m[first:first + n], wm, rtol=0, atol=1e-12)
         first += n
     assert first == len(d) and matcher.observed_lines(obs)[0] is d       # once per frame
+
+
+@pytest.mark.parametrize("distorted", [False, True])
+def test_pixels_in_both_rigs_equal_pixels_from_camera(body, walk, distorted):
+    """The matcher's one-pass projection into the visibility rig and the rig gives
+    pixels_from_camera's floats (with lens distortion and skew too) and its depth."""
+    from mocap.cameras import Rig, camera_coordinates, pixels_from_camera
+
+    pytest.importorskip("numba")
+    rig, seq = walk
+    if distorted:
+        rng = np.random.default_rng(2)
+        skew = np.array([[0, 0.7, 0], [0, 0, 0], [0, 0, 0]])
+        rig = Rig(tuple(cam.replace(dist=rng.normal(0, 0.05, 5), K=cam.K + skew) for cam in rig))
+    matcher = ContourMatcher(body, rig)
+    verts = body.shaped(seq.gt.alpha).pose(seq.gt.chi[1]).vertices[0].astype(np.float64)
+    xyz = camera_coordinates(rig, verts)
+    small, full, depth = matcher.pixels(xyz)
+    want_small, want_depth = pixels_from_camera(matcher.small, xyz)
+    np.testing.assert_array_equal(small, want_small)
+    np.testing.assert_array_equal(full, pixels_from_camera(rig, xyz)[0])
+    np.testing.assert_array_equal(depth, want_depth)
