@@ -284,6 +284,21 @@ if HAVE_NUMBA:
         return t
 
 
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _gather_pairs(vid, oid, verts, labels, obs_d, obs_m, X, limbs, D, M):
+        """X, limbs = verts[vid], labels[vid]; D, M = obs_d[oid], obs_m[oid] (one pass: numpy's
+        four fancy-indexing copies of ~12,000 rows cost ~0.9 ms)."""
+        for n in range(vid.shape[0]):
+            v, o = vid[n], oid[n]
+            limbs[n] = labels[v]
+            for k in range(3):
+                X[n, k] = verts[v, k]
+                D[n, k] = obs_d[o, k]
+                M[n, k] = obs_m[o, k]
+
+
 def percentile90(x: np.ndarray) -> float:
     """``np.percentile(x, 90)`` (linear interpolation, numpy's arithmetic) by partial sort:
     the same value without np.percentile's per-call overhead (~0.4 ms; 8 calls per
@@ -500,7 +515,14 @@ class ContourMatcher:
         visible = self.visible_contour_vertices(verts, px_small, model_masks)
         vid, oid, counts = self.pairs(px, visible, observed)
         empty = [self.rig.names[c] for c, t in enumerate(observed.trees) if t is None]
-        if len(vid):
+        if len(vid) and HAVE_NUMBA:
+            X, D, M = np.empty((len(vid), 3)), np.empty((len(vid), 3)), np.empty((len(vid), 3))
+            labels = self.body.part_labels
+            limbs = np.empty(len(vid), labels.dtype)
+            _gather_pairs(vid, oid, np.ascontiguousarray(verts, np.float64), labels,
+                          *self.observed_lines(observed), X, limbs, D, M)
+            corr = PointLines(X, limbs, D, M, np.ones(len(vid)))
+        elif len(vid):
             obs_d, obs_m = self.observed_lines(observed)
             corr = PointLines(verts[vid].astype(np.float64), self.body.part_labels[vid],
                               obs_d[oid], obs_m[oid], np.ones(len(vid)))
