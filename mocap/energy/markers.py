@@ -114,7 +114,9 @@ def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
     unl = np.flatnonzero(lab == -1)
     rows_l = np.concatenate([lab[labelled], np.repeat(np.arange(L), len(unl))])
     rows = np.concatenate([np.flatnonzero(labelled), np.tile(unl, L)])
-    if len(rows):
+    if len(rows) and not np.any(rig.dist):
+        undist = _through_pinhole(rig, view, xy)
+    elif len(rows):
         undist = np.empty_like(xy)
         for c in range(C):          # C small: undistort per view
             sel = view == c
@@ -140,6 +142,17 @@ def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
     valid[li, ci, rank] = True
     out_conf[li, ci, rank] = conf[rows]
     return MarkerObservation(out_xy, valid, out_conf)
+
+
+def _through_pinhole(rig: Rig, view: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """:func:`~mocap.cameras.undistort_points` of pixels xy (N, 2) seen in views ``view`` (N,)
+    of a rig without distortion, all rows at once: its arithmetic (pixels to normalised
+    coordinates and back) elementwise, so the same numbers as undistorting view by view."""
+    K = rig.K[view]
+    fx, s, cx, fy, cy = K[:, 0, 0], K[:, 0, 1], K[:, 0, 2], K[:, 1, 1], K[:, 1, 2]
+    y = (xy[:, 1] - cy) / fy
+    x = (xy[:, 0] - cx - s * y) / fx
+    return np.stack([fx * x + s * y + cx, fy * y + cy], axis=-1)
 
 
 def pinhole_project(rig: Rig, points: np.ndarray,
