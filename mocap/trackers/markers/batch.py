@@ -9,8 +9,8 @@ search would give (bit for bit on one machine; tests/markers/test_people_batch.p
 - :class:`PeopleEnergy`: T marker energies (:class:`~mocap.energy.markers.MarkerEnergy`, one
   per person, same landmark set and cameras) as one function (T, P, D) -> (T, P, L), forward
   kinematics, view costs and the coherence term in one compiled call
-  (:func:`_people_landmark_costs`; each person's candidates padded to the largest count with
-  invalid ones, which the kernel skips).
+  (:func:`~mocap.trackers.markers.people_kernel.people_landmark_costs`; each person's
+  candidates padded to the largest count with invalid ones, which the kernel skips).
 - :func:`anneal_people`: the annealed search of :func:`mocap.trackers.markers.crossover.run_annealing`
   (truncated-Gaussian propagation, crossover groups) for T people in lockstep.
 """
@@ -24,7 +24,6 @@ from scipy.special import ndtr, ndtri
 
 from mocap.body.root_motion import interpolate_root, perturb_root, root_mean
 from mocap.compiled import HAVE_NUMBA, njit
-from mocap.energy.marker_kernel import landmark_points
 from mocap.energy.markers import MarkerEnergy
 from mocap.trackers.apf import (
     AnnealTrace,
@@ -39,91 +38,7 @@ from mocap.trackers.tracker_settings import APFSettings
 if HAVE_NUMBA:
     from mocap.body.root_motion import _perturb_root_nb, _root_spread_nb
     from mocap.trackers.apf import _column_std_nb
-
-    @njit(cache=True)
-    def _people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest, R, t, Kc, obs_xy,
-                               valid, lines, epipoles, tau2, near, weight, coherent, predicted, weak,
-                               coh_scale, radius2):
-        """Per-landmark energies (T, P, L) of T people's particles chi (T, P, D), with the
-        arithmetic of :meth:`MarkerEnergy.landmark_costs` (compiled path) person by person:
-        landmarks by :func:`landmark_points` (axes[n], rest_joints[n], rest[n]), each view's
-        cost as :func:`view_costs_fused` (obs_xy[n], valid[n], lines[n], weight[n]), summed
-        over the views in order and divided by L x C, plus, where coherent[n], the coherence
-        term coh_scale min(|X - predicted[n]|^2 / radius2, 1) of the landmarks weak[n]. One
-        loop per landmark, no (T, P, L, C) temporaries."""
-        T, P = chi.shape[0], chi.shape[1]
-        L, C = lm_joint.shape[0], R.shape[0]
-        K = obs_xy.shape[3]
-        lc = float(L * C)
-        out = np.empty((T, P, L))
-        ux = np.empty(C)
-        uy = np.empty(C)
-        front = np.empty(C, np.bool_)
-        cost = np.empty(C)
-        for n in range(T):
-            X = landmark_points(parents, dof_joint, axes[n], rest_joints[n], chi[n], lm_joint, rest[n])
-            for p in range(P):
-                for lm in range(L):
-                    x0, x1, x2 = X[p, lm, 0], X[p, lm, 1], X[p, lm, 2]
-                    nfront = 0
-                    for c in range(C):
-                        cx = R[c, 0, 0] * x0 + R[c, 0, 1] * x1 + R[c, 0, 2] * x2 + t[c, 0]
-                        cy = R[c, 1, 0] * x0 + R[c, 1, 1] * x1 + R[c, 1, 2] * x2 + t[c, 1]
-                        cz = R[c, 2, 0] * x0 + R[c, 2, 1] * x1 + R[c, 2, 2] * x2 + t[c, 2]
-                        fr = cz > near
-                        front[c] = fr
-                        if fr:
-                            nfront += 1
-                        xn, yn = cx / cz, cy / cz
-                        ux[c] = Kc[c, 0, 0] * xn + Kc[c, 0, 1] * yn + Kc[c, 0, 2]
-                        uy[c] = Kc[c, 1, 1] * yn + Kc[c, 1, 2]
-                    for a in range(C):
-                        best, kb = np.inf, -1
-                        for k in range(K):
-                            if valid[n, lm, a, k]:
-                                dx = obs_xy[n, lm, a, k, 0] - ux[a]
-                                dy = obs_xy[n, lm, a, k, 1] - uy[a]
-                                d2 = dx * dx + dy * dy
-                                if d2 < best:
-                                    best, kb = d2, k
-                        if kb < 0 or not (best < tau2) or not front[a]:
-                            cost[a] = tau2
-                            continue
-                        dx = obs_xy[n, lm, a, kb, 0] - ux[a]
-                        dy = obs_xy[n, lm, a, kb, 1] - uy[a]
-                        uax, uay = ux[a], uy[a]
-                        epi = 0.0
-                        for b in range(C):
-                            if b == a or not front[b]:
-                                continue
-                            db = (lines[n, lm, a, kb, b, 0] * ux[b] + lines[n, lm, a, kb, b, 1] * uy[b]
-                                  + lines[n, lm, a, kb, b, 2])
-                            e2 = epipoles[a, b, 2]
-                            wx = e2 * uax - epipoles[a, b, 0]
-                            wy = e2 * uay - epipoles[a, b, 1]
-                            cr = dx * wy - dy * wx
-                            epi += db * db + cr * cr / (wx * wx + wy * wy + 1e-12)
-                        m = nfront - 1
-                        if m < 1:
-                            m = 1
-                        cval = 0.5 * best + 0.25 * epi / m
-                        cval = cval if (np.isfinite(cval) and cval < tau2) else tau2
-                        w = weight[n, lm, a, kb]
-                        cost[a] = w * cval + (1.0 - w) * tau2
-                    total = cost[0]
-                    for c in range(1, C):
-                        total += cost[c]
-                    total = total / lc
-                    if coherent[n] and weak[n, lm]:
-                        d0 = X[p, lm, 0] - predicted[n, lm, 0]
-                        d1 = X[p, lm, 1] - predicted[n, lm, 1]
-                        dz = X[p, lm, 2] - predicted[n, lm, 2]
-                        v = (d0 * d0 + d1 * d1 + dz * dz) / radius2
-                        if v > 1.0:
-                            v = 1.0
-                        total = total + coh_scale * v
-                    out[n, p, lm] = total
-        return out
+    from mocap.trackers.markers.people_kernel import people_landmark_costs
 
 
 class PeopleEnergy:
@@ -175,7 +90,7 @@ class PeopleEnergy:
         s = self.energies[0].settings
         parents, dof_joint, axes, rest_joints, lm_joint, rest = self.fk
         chi = np.ascontiguousarray(chi, np.float64)
-        return _people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest, *self.cams,
+        return people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest, *self.cams,
                                       self.obs_xy, self.valid, self.lines, self.epipoles,
                                       float(s.gate_px) ** 2, float(s.near), self.weight, self.coherent,
                                       self.predicted, self.weak, self.coh_scale,
