@@ -309,11 +309,17 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
     def after_annealing(self, energy: MarkerEnergy, chi: np.ndarray) -> np.ndarray:
         """The annealed estimate chi (D,) refined (Gauss-Newton), offsets learned: the rest of
         :meth:`search` (the several-people tracker anneals its people together)."""
-        self._refined = None
+        info = None
         if self.refinement.iterations:          # Gauss-Newton on the reprojection error
             chi, info = refine_pose(energy.points, chi, energy.obs, self.pinhole, self.body.limits,
                                     self.refinement, self.likelihood.gate_px)
-            self._refined = RefineTrace(**info)
+        return self.after_refinement(energy, chi, info)
+
+    def after_refinement(self, energy: MarkerEnergy, chi: np.ndarray, info: dict | None) -> np.ndarray:
+        """The rest of :meth:`after_annealing` once chi is refined (``info``: what
+        :func:`refine_pose` said; None: no refinement): offsets learned (the several-people
+        tracker refines its people together)."""
+        self._refined = None if info is None else RefineTrace(**info)
         self._learn_offsets(energy, chi)
         return chi
 
