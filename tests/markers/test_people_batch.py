@@ -158,3 +158,26 @@ def test_a_distortion_free_rig_is_undistorted_all_rows_at_once_as_view_by_view()
     got = _through_pinhole(rig, view, xy)
     for c in range(3):
         np.testing.assert_array_equal(got[view == c], undistort_points(rig[c], xy[view == c]))
+
+
+def test_the_particles_innermost_kinematics_equal_the_compiled_landmarks(body64):
+    """landmarks_by_particle (L, 3, P) holds landmark_points' (P, L, 3) numbers, bit for bit
+    (root rotations large, tiny and zero: both branches of the twist exponential)."""
+    from mocap.body.catalogue import make_landmark_set
+    from mocap.energy.marker_kernel import landmark_points
+    from mocap.trackers.markers.people_kernel import landmarks_by_particle
+
+    lms = make_landmark_set(body64, "default")
+    shaped = body64.shaped(np.random.default_rng(0).normal(0, 1, body64.num_shape))
+    m = lms.model
+    args = (np.asarray(m.parents, np.int64), np.asarray(m.dof_joint, np.int64),
+            np.ascontiguousarray(shaped.axes, np.float64),
+            np.ascontiguousarray(shaped.rest_joints, np.float64))
+    rest = np.ascontiguousarray(lms.rest_points(shaped), np.float64)
+    joint = np.asarray(lms.joint, np.int64)
+    rng = np.random.default_rng(4)
+    chi = rng.uniform(body64.limits[:, 0].clip(-2), body64.limits[:, 1].clip(None, 2), (64, body64.num_dofs))
+    chi[:8, 3:6] *= 1e-6                                                # |omega| < 1e-4: the series
+    chi[8, 3:6] = 0.0
+    got = landmarks_by_particle(*args, chi, joint, rest)
+    np.testing.assert_array_equal(got.transpose(2, 0, 1), landmark_points(*args, chi, joint, rest))

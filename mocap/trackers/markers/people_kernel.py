@@ -16,18 +16,18 @@ from __future__ import annotations
 import numpy as np
 
 from mocap.compiled import njit
-from mocap.energy.marker_kernel import landmark_points
+from mocap.energy.marker_kernel import _se3_exp
 
 
 @njit(cache=True, error_model="numpy")
 def _nearest_cost(X, p, lm, a, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, weight):
-    """The cost of view a of landmark lm of particle p as :func:`view_costs_fused` computes it
-    (several candidates: the nearest one)."""
+    """The cost of view a of landmark lm of particle p (landmarks X (L, 3, P)) as
+    :func:`view_costs_fused` computes it (several candidates: the nearest one)."""
     C = R.shape[0]
     K = obs_xy.shape[2]
     u = np.empty((C, 2))
     front = np.empty(C, np.bool_)
-    x0, x1, x2 = X[p, lm, 0], X[p, lm, 1], X[p, lm, 2]
+    x0, x1, x2 = X[lm, 0, p], X[lm, 1, p], X[lm, 2, p]
     nfront = 0
     for c in range(C):
         cx = R[c, 0, 0] * x0 + R[c, 0, 1] * x1 + R[c, 0, 2] * x2 + t[c, 0]
@@ -76,7 +76,7 @@ def people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, 
                           valid, lines, epipoles, tau2, near, weight, coherent, predicted, weak, coh_scale,
                           radius2):
     """Per-landmark energies (T, P, L) of T people's particles chi (T, P, D): person n's
-    landmarks by :func:`landmark_points` (axes[n], rest_joints[n], rest[n]); each view's cost
+    landmarks by :func:`landmarks_by_particle` (axes[n], rest_joints[n], rest[n]); each view's cost
     as :func:`mocap.energy.marker_kernel.view_costs_fused` computes it from obs_xy[n]
     (L, C, K, 2), valid[n], lines[n] (L, C, K, C, 3), weight[n] (L, C, K); the views' costs
     summed in order and divided by L x C; plus, where coherent[n], the coherence term
@@ -90,12 +90,11 @@ def people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, 
     front = np.empty((C, P), np.bool_)
     nfront = np.empty(P, np.int64)
     dx, dy, d2, epi, total = np.empty(P), np.empty(P), np.empty(P), np.empty(P), np.empty(P)
-    xs, ys, zs = np.empty(P), np.empty(P), np.empty(P)
     for n in range(T):
-        X = landmark_points(parents, dof_joint, axes[n], rest_joints[n], chi[n], lm_joint, rest[n])
+        X = landmarks_by_particle(parents, dof_joint, axes[n], rest_joints[n], chi[n], lm_joint, rest[n])
         for lm in range(L):
+            xs, ys, zs = X[lm, 0], X[lm, 1], X[lm, 2]
             for p in range(P):
-                xs[p], ys[p], zs[p] = X[p, lm, 0], X[p, lm, 1], X[p, lm, 2]
                 nfront[p] = 0
             for c in range(C):
                 r00, r01, r02, t0 = R[c, 0, 0], R[c, 0, 1], R[c, 0, 2], t[c, 0]
@@ -161,12 +160,84 @@ def people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, 
             for p in range(P):
                 v = total[p] / lc
                 if coherent[n] and weak[n, lm]:
-                    d0 = X[p, lm, 0] - predicted[n, lm, 0]
-                    d1 = X[p, lm, 1] - predicted[n, lm, 1]
-                    dz = X[p, lm, 2] - predicted[n, lm, 2]
+                    d0 = X[lm, 0, p] - predicted[n, lm, 0]
+                    d1 = X[lm, 1, p] - predicted[n, lm, 1]
+                    dz = X[lm, 2, p] - predicted[n, lm, 2]
                     r = (d0 * d0 + d1 * d1 + dz * dz) / radius2
                     if r > 1.0:
                         r = 1.0
                     v = v + coh_scale * r
                 out[n, p, lm] = v
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _mul_rows(A, B, out):
+    """out = A B for affine transforms stored as their top rows (3, 4, P), particle by
+    particle with :func:`mocap.energy.marker_kernel._mat4_mul`'s arithmetic."""
+    P = A.shape[2]
+    for i in range(3):
+        for j in range(4):
+            for p in range(P):
+                v = A[i, 0, p] * B[0, j, p] + A[i, 1, p] * B[1, j, p] + A[i, 2, p] * B[2, j, p]
+                out[i, j, p] = v + A[i, 3, p] if j == 3 else v
+
+
+@njit(cache=True, error_model="numpy")
+def landmarks_by_particle(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest_points):
+    """:func:`mocap.energy.marker_kernel.landmark_points` with the particles innermost: the
+    landmarks (L, 3, P) of poses chi (P, 6 + D), the same numbers (each joint's revolute
+    transforms and products computed for all particles in one loop each)."""
+    P = chi.shape[0]
+    J, D, L = parents.shape[0], dof_joint.shape[0], lm_joint.shape[0]
+    G = np.empty((J, 3, 4, P))
+    root = np.empty((3, 4, P))
+    one = np.empty((4, 4))
+    for p in range(P):
+        _se3_exp(chi[p, :6], one)
+        for i in range(3):
+            for j in range(4):
+                root[i, j, p] = one[i, j]
+    local, E, tmp = np.empty((3, 4, P)), np.empty((3, 4, P)), np.empty((3, 4, P))
+    sn, cs = np.empty(P), np.empty(P)
+    for jt in range(J):
+        first = True
+        q0, q1, q2 = rest_joints[jt, 0], rest_joints[jt, 1], rest_joints[jt, 2]
+        for d in range(D):
+            if dof_joint[d] != jt:
+                continue
+            for p in range(P):
+                sn[p] = np.sin(chi[p, 6 + d])
+                cs[p] = np.cos(chi[p, 6 + d])
+            x, y, z = axes[d, 0], axes[d, 1], axes[d, 2]
+            M = local if first else E
+            for p in range(P):                  # _revolute
+                s, c = sn[p], cs[p]
+                C = 1.0 - c
+                m00, m01, m02 = c + x * x * C, x * y * C - z * s, x * z * C + y * s
+                m10, m11, m12 = y * x * C + z * s, c + y * y * C, y * z * C - x * s
+                m20, m21, m22 = z * x * C - y * s, z * y * C + x * s, c + z * z * C
+                M[0, 0, p], M[0, 1, p], M[0, 2, p] = m00, m01, m02
+                M[1, 0, p], M[1, 1, p], M[1, 2, p] = m10, m11, m12
+                M[2, 0, p], M[2, 1, p], M[2, 2, p] = m20, m21, m22
+                M[0, 3, p] = q0 - (m00 * q0 + m01 * q1 + m02 * q2)
+                M[1, 3, p] = q1 - (m10 * q0 + m11 * q1 + m12 * q2)
+                M[2, 3, p] = q2 - (m20 * q0 + m21 * q1 + m22 * q2)
+            if first:
+                first = False
+            else:
+                _mul_rows(local, E, tmp)
+                local, tmp = tmp, local
+        base = root if parents[jt] < 0 else G[parents[jt]]
+        if first:
+            G[jt] = base
+        else:
+            _mul_rows(base, local, G[jt])
+    out = np.empty((L, 3, P))
+    for lm in range(L):
+        g = G[lm_joint[lm]]
+        r0, r1, r2 = rest_points[lm, 0], rest_points[lm, 1], rest_points[lm, 2]
+        for i in range(3):
+            for p in range(P):
+                out[lm, i, p] = g[i, 0, p] * r0 + g[i, 1, p] * r1 + g[i, 2, p] * r2 + g[i, 3, p]
     return out
