@@ -225,7 +225,7 @@ class PeopleTracker:
     def _landmarks(t: Track, chi: np.ndarray | None = None) -> np.ndarray:
         trk = t.tracker
         chi = trk.history[-1] if chi is None else chi
-        return trk.landmarks.positions(trk.shaped, chi[None])[0].astype(np.float64)
+        return trk.landmark_positions(chi[None])[0].astype(np.float64)
 
     # -- per frame ---------------------------------------------------------------------
     def assign(self, frame: Frame, live: list[Track],
