@@ -97,8 +97,10 @@ def scene(body64):
 def test_the_people_kernel_gives_each_persons_energy_bit_for_bit(body64, scene, gate, use_confidence):
     """Three people: all candidates (several per view), one candidate per view, and views with
     none; particles behind a camera; weak landmarks pulled by coherence for two of them."""
-    from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, MarkerObservation
+    from mocap.energy.markers import HAVE_NUMBA, MarkerEnergy, MarkerLikelihood, MarkerObservation
 
+    if not HAVE_NUMBA:
+        pytest.skip("numba is not installed")
     seq, lms, obs, rig = scene
     rng = np.random.default_rng(5)
     one = MarkerObservation(obs.xy[:, :, :1], obs.valid[:, :, :1], obs.confidence[:, :, :1])
@@ -163,6 +165,7 @@ def test_a_distortion_free_rig_is_undistorted_all_rows_at_once_as_view_by_view()
 def test_the_particles_innermost_kinematics_equal_the_compiled_landmarks(body64):
     """landmarks_by_particle (L, 3, P) holds landmark_points' (P, L, 3) numbers, bit for bit
     (root rotations large, tiny and zero: both branches of the twist exponential)."""
+    pytest.importorskip("numba")
     from mocap.body.catalogue import make_landmark_set
     from mocap.energy.marker_kernel import landmark_points
     from mocap.trackers.markers.people_kernel import landmarks_by_particle
