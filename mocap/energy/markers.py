@@ -114,7 +114,9 @@ def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
     unl = np.flatnonzero(lab == -1)
     rows_l = np.concatenate([lab[labelled], np.repeat(np.arange(L), len(unl))])
     rows = np.concatenate([np.flatnonzero(labelled), np.tile(unl, L)])
-    if len(rows):
+    if len(rows) and not np.any(rig.dist):
+        undist = _through_pinhole(rig, view, xy)
+    elif len(rows):
         undist = np.empty_like(xy)
         for c in range(C):          # C small: undistort per view
             sel = view == c
@@ -140,6 +142,17 @@ def arrange_detections(det: Detections, landmark_names: Sequence[str], rig: Rig,
     valid[li, ci, rank] = True
     out_conf[li, ci, rank] = conf[rows]
     return MarkerObservation(out_xy, valid, out_conf)
+
+
+def _through_pinhole(rig: Rig, view: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """:func:`~mocap.cameras.undistort_points` of pixels xy (N, 2) seen in views ``view`` (N,)
+    of a rig without distortion, all rows at once: its arithmetic (pixels to normalised
+    coordinates and back) elementwise, so the same numbers as undistorting view by view."""
+    K = rig.K[view]
+    fx, s, cx, fy, cy = K[:, 0, 0], K[:, 0, 1], K[:, 0, 2], K[:, 1, 1], K[:, 1, 2]
+    y = (xy[:, 1] - cy) / fy
+    x = (xy[:, 0] - cx - s * y) / fx
+    return np.stack([fx * x + s * y + cx, fy * y + cy], axis=-1)
 
 
 def pinhole_project(rig: Rig, points: np.ndarray,
@@ -265,7 +278,8 @@ class MarkerEnergy:
     distortion (obs holds undistorted pixels); obs: this frame's arranged detections;
     F: (C, C, 3, 3) the rig's fundamental matrices (computed when None); predicted: (L, 3)
     predicted landmark positions (for coherence); weak: (L,) bool landmarks that get the
-    coherence term. Forward kinematics and view costs run in the compiled kernels of
+    coherence term; rest_points: (L, 3) the landmarks' rest points of ``shaped`` when the
+    caller keeps them (None: computed). Forward kinematics and view costs run in the compiled kernels of
     :mod:`mocap.energy.marker_kernel` (float64); ``compiled=False``, or a machine without
     numba (said once, as a warning), uses the numpy reference (:func:`view_costs`, in the
     body's dtype).
@@ -274,13 +288,14 @@ class MarkerEnergy:
     def __init__(self, landmarks: LandmarkSet, shaped: ShapedBody, rig: Rig, obs: MarkerObservation,
                  settings: MarkerLikelihood, F: np.ndarray | None = None,
                  predicted: np.ndarray | None = None, weak: np.ndarray | None = None,
-                 compiled: bool | None = None, rest_offsets: np.ndarray | None = None):
+                 compiled: bool | None = None, rest_offsets: np.ndarray | None = None,
+                 rest_points: np.ndarray | None = None):
         self.landmarks, self.shaped, self.rig, self.obs, self.settings = landmarks, shaped, rig, obs, settings
         self.F = fundamental_matrices(rig) if F is None else F
         self.compiled = (settings.compiled if compiled is None else compiled) and compiled_available()
         tables = EpipolarTables.build(obs, rig, self.F)
         L, C, K, _ = obs.xy.shape
-        rest = self._rest_points(landmarks, shaped, rest_offsets)          # once (float64)
+        rest = self._rest_points(landmarks, shaped, rest_offsets, rest_points)     # once (float64)
         if self.compiled:
             self.tables = tables
             self.obs_cast = obs
@@ -305,10 +320,12 @@ class MarkerEnergy:
         self.weak = np.zeros(L, bool) if weak is None or predicted is None else np.asarray(weak, bool)
 
     @staticmethod
-    def _rest_points(landmarks: LandmarkSet, shaped: ShapedBody, offsets: np.ndarray | None) -> np.ndarray:
-        """Rest landmarks (L, 3), plus keypoint offsets in their joints' rest frames
+    def _rest_points(landmarks: LandmarkSet, shaped: ShapedBody, offsets: np.ndarray | None,
+                     given: np.ndarray | None = None) -> np.ndarray:
+        """Rest landmarks (L, 3) (``given``: ``landmarks.rest_points(shaped)`` as the caller
+        has it), plus keypoint offsets in their joints' rest frames
         (:mod:`mocap.trackers.markers.offsets`) when given."""
-        rest = np.asarray(landmarks.rest_points(shaped), np.float64)
+        rest = np.asarray(landmarks.rest_points(shaped) if given is None else given, np.float64)
         return rest if offsets is None else rest + offsets
 
     def points(self, chi: np.ndarray) -> np.ndarray:

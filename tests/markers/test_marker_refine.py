@@ -71,3 +71,37 @@ def test_an_outlier_view_is_down_weighted_and_the_others_are_not():
     assert np.all(w[view != 3] == 1.0)
     assert np.all(w[view == 3] < 0.1)
     assert np.all(view_weights(np.abs(rng.normal(0, 2.0, 50)), view, 5, 3.0, 4.0) == 1.0)
+
+
+@pytest.mark.parametrize("outlier_views", [0.0, 3.0])
+def test_refining_people_together_gives_each_persons_own_refinement(body64, outlier_views):
+    """Three people (own shapes, starts and detections; the third has too few detections and
+    stops at once): refine_people equals refine_pose person by person, bit for bit."""
+    from mocap.energy.markers import MarkerObservation
+    from mocap.trackers.markers.refine import refine_people
+
+    rig = pinhole_rig(rig_from_config("humaneva"))
+    det = {"enabled": True, "detection_rate": 0.9, "false_positive_rate": 0.3, "noise_px": 1.0,
+           "occlusion": False}
+    seq = make_synthetic(body64, rig, motion="walk", frames=3, fps=25, seed=4, masks=False, detections=det)
+    lms = make_landmark_set(body64, "auto", seq.detections.labels)
+    rng = np.random.default_rng(1)
+    points, obs, starts = [], [], []
+    for n in range(3):
+        o = arrange_detections(seq.detections.select(n), lms.names, rig)
+        if n == 2:                                                       # two detections left
+            keep = np.zeros_like(o.valid)
+            keep[0, 0, 0] = keep[1, 1, 0] = True
+            o = MarkerObservation(o.xy, o.valid & keep, o.confidence)
+        shaped = body64.shaped(seq.gt.alpha + rng.normal(0, 0.3, seq.gt.alpha.shape))
+        points.append(MarkerEnergy(lms, shaped, rig, o, MarkerLikelihood(gate_px=40.0)).points)
+        obs.append(o)
+        starts.append(np.clip(seq.gt.chi[n] + rng.normal(0, 0.03, body64.num_dofs),
+                              body64.limits[:, 0], body64.limits[:, 1]))
+    s = Refinement(iterations=4, outlier_views=outlier_views)
+    together = refine_people(points, np.stack(starts), obs, rig, body64.limits, s, 40.0)
+    for n in range(3):
+        chi, info = refine_pose(points[n], starts[n], obs[n], rig, body64.limits, s, 40.0)
+        np.testing.assert_array_equal(together[n][0], chi)
+        np.testing.assert_equal(together[n][1], info)                   # NaN where NaN
+    assert [t[1]["iterations"] for t in together] == [4, 4, 0]

@@ -8,7 +8,8 @@ search would give (bit for bit on one machine; tests/markers/test_people_batch.p
 
 - :class:`PeopleEnergy`: T marker energies (:class:`~mocap.energy.markers.MarkerEnergy`, one
   per person, same landmark set and cameras) as one function (T, P, D) -> (T, P, L), forward
-  kinematics and view costs in one compiled call (:func:`_people_costs`; each person's
+  kinematics, view costs and the coherence term in one compiled call
+  (:func:`~mocap.trackers.markers.people_kernel.people_landmark_costs`; each person's
   candidates padded to the largest count with invalid ones, which the kernel skips).
 - :func:`anneal_people`: the annealed search of :func:`mocap.trackers.markers.crossover.run_annealing`
   (truncated-Gaussian propagation, crossover groups) for T people in lockstep.
@@ -23,7 +24,6 @@ from scipy.special import ndtr, ndtri
 
 from mocap.body.root_motion import interpolate_root, perturb_root, root_mean
 from mocap.compiled import HAVE_NUMBA, njit
-from mocap.energy.marker_kernel import landmark_points, view_costs_fused
 from mocap.energy.markers import MarkerEnergy
 from mocap.trackers.apf import (
     AnnealTrace,
@@ -32,31 +32,13 @@ from mocap.trackers.apf import (
     find_betas,
     particle_spread,
     reflect_into,
-    survival_rate,
 )
 from mocap.trackers.tracker_settings import APFSettings
 
 if HAVE_NUMBA:
-    from mocap.body.root_motion import _root_spread_nb
+    from mocap.body.root_motion import _perturb_root_nb, _root_spread_nb
     from mocap.trackers.apf import _column_std_nb
-
-    @njit(cache=True)
-    def _people_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest, R, t, Kc, obs_xy, valid,
-                      lines, epipoles, tau2, near, weight):
-        """Per-view costs (T, P, L, C) of T people's particles chi (T, P, D): person n's
-        landmarks by :func:`landmark_points` (axes[n], rest_joints[n], rest[n]) and costs by
-        :func:`view_costs_fused` (obs_xy[n], valid[n], lines[n], weight[n]); also returns the
-        landmarks (T, P, L, 3)."""
-        T, P = chi.shape[0], chi.shape[1]
-        L, C = lm_joint.shape[0], R.shape[0]
-        cost = np.empty((T, P, L, C))
-        X = np.empty((T, P, L, 3))
-        for n in range(T):
-            X[n] = landmark_points(parents, dof_joint, axes[n], rest_joints[n], chi[n], lm_joint, rest[n])
-            c, _ = view_costs_fused(X[n], R, t, Kc, obs_xy[n], valid[n], lines[n], epipoles, tau2, near,
-                                    weight[n])
-            cost[n] = c
-        return cost, X
+    from mocap.trackers.markers.people_kernel import people_landmark_costs
 
 
 class PeopleEnergy:
@@ -92,27 +74,27 @@ class PeopleEnergy:
                    np.stack([e._fk[3] for e in self.energies]), lm_joint,
                    np.stack([e._fk[5] for e in self.energies]))
         self.epipoles = np.ascontiguousarray(e0.tables.epipoles, np.float64)
+        self.cams = e0._cams
+        s = e0.settings
+        # the coherence term of MarkerEnergy.costs_of_points, per person
+        self.coherent = np.array([bool(s.coherence_weight and e.weak.any()) for e in self.energies])
+        self.weak = np.stack([np.asarray(e.weak, bool) for e in self.energies])
+        self.predicted = np.stack([np.zeros((L, 3)) if e.predicted is None
+                                   else np.asarray(e.predicted, np.float64) for e in self.energies])
+        self.coh_scale = float(s.coherence_weight * s.gate_px**2 / (L * C))
 
     def landmark_costs(self, chi: np.ndarray) -> np.ndarray:
         """(T, P, D) -> (T, P, L) per-landmark energy of each person's particles."""
         if not self.fused:
             return np.stack([e.landmark_costs(x) for e, x in zip(self.energies, chi, strict=True)])
-        e0 = self.energies[0]
-        s = e0.settings
+        s = self.energies[0].settings
         parents, dof_joint, axes, rest_joints, lm_joint, rest = self.fk
-        cost, X = _people_costs(parents, dof_joint, axes, rest_joints, np.ascontiguousarray(chi, np.float64),
-                                lm_joint, rest, *e0._cams, self.obs_xy, self.valid, self.lines, self.epipoles,
-                                float(s.gate_px) ** 2, float(s.near), self.weight)
-        T, P, L, C = cost.shape
-        out = cost.sum(axis=3) / (L * C)
-        for n, e in enumerate(self.energies):       # the coherence term, as MarkerEnergy.costs_of_points
-            if s.coherence_weight and e.weak.any():
-                d2 = ((X[n][:, e.weak] - e.predicted[e.weak]) ** 2).sum(axis=-1)
-                coh = np.zeros((P, L))
-                coh[:, e.weak] = (s.coherence_weight * s.gate_px**2 / (L * C)
-                                  * np.minimum(d2 / s.coherence_radius**2, 1.0))
-                out[n] = out[n] + coh
-        return out
+        chi = np.ascontiguousarray(chi, np.float64)
+        return people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, rest, *self.cams,
+                                      self.obs_xy, self.valid, self.lines, self.epipoles,
+                                      float(s.gate_px) ** 2, float(s.near), self.weight, self.coherent,
+                                      self.predicted, self.weak, self.coh_scale,
+                                      float(s.coherence_radius**2))
 
 
 def _truncated_normal(mean: np.ndarray, std: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -137,11 +119,16 @@ def _propagate(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rngs: Sequenc
     root_std = np.where(np.arange(D) < 6, std, 0.0)                 # (T, D)
     out = np.array(x, np.float64)
     moved = [n for n in range(T) if np.any(root_std[n])]
-    for n in moved:
-        noise = rngs[n].normal(size=(P, D)) * root_std[n]
-        out[n, :, :6] = perturb_root(out[n, :, :6], noise[:, :6], root_points[n])
     if moved:
-        root = reflect_into(out[moved, :, :6].reshape(-1, 6), limits[:6])
+        noise = np.stack([rngs[n].normal(size=(P, D)) * root_std[n] for n in moved])
+        xi, roots = out[moved, :, :6], np.stack([root_points[n] for n in moved])
+        if HAVE_NUMBA:                              # perturb_root's compiled loop, every person at once
+            root = np.empty((len(moved), P, 6))
+            _perturb_roots_nb(np.ascontiguousarray(xi), np.ascontiguousarray(noise[:, :, :6]),
+                              np.ascontiguousarray(roots, np.float64), root)
+        else:
+            root = np.stack([perturb_root(xi[i], noise[i, :, :6], roots[i]) for i in range(len(moved))])
+        root = reflect_into(root.reshape(-1, 6), limits[:6])
         out[moved, :, :6] = root.reshape(len(moved), P, 6)
     uniforms = np.stack([rng.random((P, D - 6)) for rng in rngs])
     out[:, :, 6:] = _truncated_normal(x[:, :, 6:], std[:, None, 6:], limits[6:, 0], limits[6:, 1], uniforms)
@@ -149,6 +136,13 @@ def _propagate(x: np.ndarray, std: np.ndarray, limits: np.ndarray, rngs: Sequenc
 
 
 if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _perturb_roots_nb(xi, noise, roots, out):
+        """out[n] = :func:`mocap.body.root_motion.perturb_root` (xi[n], noise[n], roots[n]) for
+        twists xi (T, P, 6), noise (T, P, 6), root points (T, 3)."""
+        for n in range(xi.shape[0]):
+            _perturb_root_nb(xi[n], noise[n], roots[n], out[n])
 
     @njit(cache=True)
     def _searchsorted_rows(cum, positions, out):
@@ -244,15 +238,18 @@ def anneal_people(energy: PeopleEnergy, centers: np.ndarray, init_std: np.ndarra
         E = costs.sum(axis=2)
         W, betas = _weights(costs, groups, settings.survival)
         spreads = _spreads(x, root_points)
+        # the trace of anneal's layer, row by row (the same reductions as on each person's arrays)
+        k, e_min = E.argmin(axis=1), E.min(axis=1)
+        better = e_min < best_e
+        best_x[better], best_e[better] = x[better, k[better]], e_min[better]
+        w = W[:, 0]
+        w2 = (w**2).sum(axis=1)
+        survival, ess = w.sum(axis=1) ** 2 / (P * w2), 1.0 / w2
+        spread_mean = spreads.mean(axis=1)
         for n in range(T):
-            k = int(np.argmin(E[n]))
-            if E[n, k] < best_e[n]:
-                best_x[n], best_e[n] = x[n, k], float(E[n, k])
-            w = W[n, 0]
-            spread = spreads[n]
             layers[n].append(LayerTrace(
-                energy_min=float(E[n].min()), energy_mean=float(E[n] @ w), beta=float(betas[n, 0]),
-                survival=survival_rate(w), ess=float(1.0 / (w**2).sum()), spread=float(spread.mean())))
+                energy_min=float(e_min[n]), energy_mean=float(E[n] @ w[n]), beta=float(betas[n, 0]),
+                survival=float(survival[n]), ess=float(ess[n]), spread=float(spread_mean[n])))
         if m == settings.layers - 1:
             break
         r = np.empty((T, G + 1))

@@ -62,6 +62,7 @@ from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks, 
 from mocap.trackers.diagnostics import StepDiagnostics
 from mocap.trackers.markers.associate import Skeletons, associate_people, person_detections, skeletons_of
 from mocap.trackers.markers.batch import PeopleEnergy, anneal_people
+from mocap.trackers.markers.refine import refine_people
 from mocap.trackers.markers.settings import PeopleOptions
 from mocap.trackers.markers.startup import triangulate_candidates
 from mocap.trackers.markers.tracker import MarkerAPFTracker
@@ -224,7 +225,7 @@ class PeopleTracker:
     def _landmarks(t: Track, chi: np.ndarray | None = None) -> np.ndarray:
         trk = t.tracker
         chi = trk.history[-1] if chi is None else chi
-        return trk.landmarks.positions(trk.shaped, chi[None])[0].astype(np.float64)
+        return trk.landmark_positions(chi[None])[0].astype(np.float64)
 
     # -- per frame ---------------------------------------------------------------------
     def assign(self, frame: Frame, live: list[Track],
@@ -353,8 +354,9 @@ class PeopleTracker:
     def _step_tracks(self, stepping: list[tuple[Track, Frame]]) -> list[Estimate]:
         """Each track's step on its frame (its own detections): the annealed searches of all of
         them run together (:func:`mocap.trackers.markers.batch.anneal_people`: one energy call
-        per layer for every person's particles, each person's result as its own step gives);
-        one track alone, or trackers that cannot share a batch, step one by one."""
+        per layer for every person's particles, then their refinements together, each person's
+        result as its own step gives); one track alone, or trackers that cannot share a batch,
+        step one by one."""
         trackers = [t.tracker for t, _ in stepping]
         if not self._batchable(trackers):
             return [trk.step(frame) for trk, (_, frame) in zip(trackers, stepping, strict=True)]
@@ -368,8 +370,13 @@ class PeopleTracker:
                               first.body.limits, first.settings, [trk.rng for trk in trackers],
                               np.stack([trk.history[-1] for trk in trackers]),
                               [trk.shaped.rest_joints[0] for trk in trackers], first.groups)
-        chis = [trk.after_annealing(e, chi)
-                for trk, (e, _), (chi, _) in zip(trackers, built, found, strict=True)]
+        refined = [(chi, None) for chi, _ in found]
+        if first.refinement.iterations:     # every person's Gauss-Newton steps together
+            refined = refine_people([e.points for e, _ in built], np.stack([chi for chi, _ in found]),
+                                    [e.obs for e, _ in built], first.pinhole, first.body.limits,
+                                    first.refinement, first.likelihood.gate_px)
+        chis = [trk.after_refinement(e, chi, info)
+                for trk, (e, _), (chi, info) in zip(trackers, built, refined, strict=True)]
         t2 = time.perf_counter()
         share = {"observation": (t1 - t0) / len(trackers), "search": (t2 - t1) / len(trackers)}
         out = []
@@ -382,7 +389,7 @@ class PeopleTracker:
     @staticmethod
     def _batchable(trackers: list[MarkerAPFTracker]) -> bool:
         """Trackers whose searches can run as one batch: two or more, crossover groups, one body,
-        landmark set and search settings, no particles kept."""
+        landmark set, search and refinement settings and cameras, no particles kept."""
         if len(trackers) < 2:
             return False
         a = trackers[0]
@@ -390,6 +397,8 @@ class PeopleTracker:
             return False
         for b in trackers[1:]:
             if (b.body is not a.body or b.settings != a.settings or b.keep_particles or b.shaped is None
+                    or b.refinement != a.refinement or b.likelihood.gate_px != a.likelihood.gate_px
+                    or (b.rig is not a.rig and b.pinhole != a.pinhole)
                     or b.landmarks.names != a.landmarks.names or not np.array_equal(b.std0, a.std0)
                     or len(b.groups) != len(a.groups)
                     or not all(np.array_equal(g.dofs, h.dofs) and np.array_equal(g.landmarks, h.landmarks)

@@ -20,6 +20,7 @@ from dataclasses import replace
 import numpy as np
 
 from mocap.body.catalogue import dof_moves, make_landmark_set
+from mocap.body.kinematics import chain_transforms
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.root_motion import predict_root
@@ -80,6 +81,7 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
         self.F = fundamental_matrices(self.pinhole)
         self.landmarks: LandmarkSet | None = None
         self.shaped: ShapedBody | None = None
+        self._rest: tuple[ShapedBody, np.ndarray] | None = None     # rest landmarks of self.shaped
         self.history: list[np.ndarray] = []
         self.start_up_flags: list[str] = []
         self.start_up: dict = {}
@@ -273,16 +275,33 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
         out[:6] = predict_root(a[:6], b[:6], self.damping)
         return np.clip(out, self.body.limits[:, 0], self.body.limits[:, 1])
 
+    def rest_landmarks(self) -> np.ndarray:
+        """The landmarks' rest points (L, 3) of the tracked shape (``landmarks.rest_points``,
+        computed once per shape)."""
+        if self._rest is None or self._rest[0] is not self.shaped:
+            self._rest = (self.shaped, self.landmarks.rest_points(self.shaped))
+        return self._rest[1]
+
+    def landmark_positions(self, chi: np.ndarray) -> np.ndarray:
+        """``landmarks.positions(shaped, chi)`` (P, L, 3) of poses chi (P, D), the rest points
+        computed once per shape."""
+        m = self.landmarks.model
+        chi = np.atleast_2d(np.asarray(chi, dtype=m.dtype))
+        G = chain_transforms(m.parents, m.dof_joint, self.shaped.axes, self.shaped.rest_joints,
+                             chi[:, :6], chi[:, 6:])
+        return self.landmarks.from_transforms(G, self.rest_landmarks())
+
     def frame_energy(self, frame: Frame, predicted: np.ndarray) -> tuple[MarkerEnergy, np.ndarray]:
         obs = self.observe(frame)
         lms = self.landmarks
         if self.offsets is None and self.profile is not None:
             self.offsets = self._profile_offsets(self.shaped)
-        pred_pts = lms.positions(self.shaped, predicted[None])[0].astype(np.float64)
+        pred_pts = self.landmark_positions(predicted[None])[0].astype(np.float64)
         n_views = views_near(obs, self.pinhole, pred_pts, self.likelihood.gate_px)
         weak = n_views < self.likelihood.min_views
         energy = MarkerEnergy(lms, self.shaped, self.pinhole, obs, self.likelihood, F=self.F,
-                              predicted=pred_pts, weak=weak, rest_offsets=self.offsets)
+                              predicted=pred_pts, weak=weak, rest_offsets=self.offsets,
+                              rest_points=self.rest_landmarks())
         return energy, n_views
 
     def _learn_offsets(self, energy: MarkerEnergy, chi: np.ndarray) -> None:
@@ -309,11 +328,17 @@ class MarkerAPFTracker(AnnealedStep, OnePerson):
     def after_annealing(self, energy: MarkerEnergy, chi: np.ndarray) -> np.ndarray:
         """The annealed estimate chi (D,) refined (Gauss-Newton), offsets learned: the rest of
         :meth:`search` (the several-people tracker anneals its people together)."""
-        self._refined = None
+        info = None
         if self.refinement.iterations:          # Gauss-Newton on the reprojection error
             chi, info = refine_pose(energy.points, chi, energy.obs, self.pinhole, self.body.limits,
                                     self.refinement, self.likelihood.gate_px)
-            self._refined = RefineTrace(**info)
+        return self.after_refinement(energy, chi, info)
+
+    def after_refinement(self, energy: MarkerEnergy, chi: np.ndarray, info: dict | None) -> np.ndarray:
+        """The rest of :meth:`after_annealing` once chi is refined (``info``: what
+        :func:`refine_pose` said; None: no refinement): offsets learned (the several-people
+        tracker refines its people together)."""
+        self._refined = None if info is None else RefineTrace(**info)
         self._learn_offsets(energy, chi)
         return chi
 
