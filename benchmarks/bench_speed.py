@@ -20,13 +20,15 @@ The baseline JSON stores seconds per frame per tracker (and the machine it came 
 every later run prints ``now / baseline`` next to its own times.
 
 Comparing two commits on a noisy machine: run this script from two checkouts in turn, several
-rounds, each with ``--frame-times FILE`` (one JSON line per run: commit, load, every frame's
-seconds per tracker; the old commit needs this option too), then compare medians and the
-fastest frames per commit::
+rounds, each with ``--frame-times FILE`` (one JSON line per run: the commit of the ``mocap``
+timed, the load before and after, every frame's seconds and CPU seconds of this process per
+tracker), then compare medians and the fastest frames per commit. This script can time an
+older checkout's code (one without the option) through PYTHONPATH; CPU seconds are the
+steadier figure where other work shares the cores::
 
     git worktree add ../old <commit> && ln -s $PWD/.venv ../old/.venv
-    for r in 1 2 3 4; do for d in ../old .; do (cd $d && .venv/bin/python \
-        benchmarks/bench_speed.py --frames 7 --trackers local,apf_prior,apf \
+    for r in 1 2 3; do for d in ../old .; do (cd $d && PYTHONPATH=$PWD .venv/bin/python \
+        $OLDPWD/benchmarks/bench_speed.py --frames 7 --trackers local,hybrid \
         --frame-times /tmp/ab.jsonl); done; done
 """
 
@@ -71,31 +73,36 @@ def without_images(frame: Frame) -> Frame:
     return Frame(index=frame.index, masks=frame.masks, images=None, detections=frame.detections)
 
 
-def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, float, list]:
-    """Mean and median seconds per tracked frame, mean energy evaluations, and every frame's
-    seconds."""
+def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, float, list, list]:
+    """Mean and median seconds per tracked frame, mean energy evaluations, every frame's
+    seconds and every frame's CPU seconds of this process (steadier on a shared machine)."""
     cfg_name, overrides, images = TRACKERS[name]
     cfg = compose("track", [f"tracker={cfg_name}", *overrides])
     tracker = build(cfg.tracker, body=body, rig=rig, rng=np.random.default_rng(0))
     tracker.initialize(noisy_initial_pose(body, seq.gt.chi[0], np.random.default_rng(0), 3.0, 0.02),
                        seq.gt.alpha)
-    times, evals = [], []
+    times, cpu, evals = [], [], []
     for f in range(1, frames):
         frame = frame_of(seq, f)
         if not images:
             frame = without_images(frame)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         est = tracker.step(frame)
         times.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
         evals.append(est.diagnostics.get("energy_evaluations", 0))
-    return float(np.mean(times)), float(np.median(times)), float(np.mean(evals)), times
+    return float(np.mean(times)), float(np.median(times)), float(np.mean(evals)), times, cpu
 
 
 def _commit() -> str:
-    """This checkout's commit (for --frame-times lines), or '' outside git."""
+    """The commit of the checkout whose ``mocap`` is timed (for --frame-times lines; this
+    script can time another checkout's code with PYTHONPATH), or '' outside git."""
     import subprocess
+
+    import mocap
     try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, text=True,
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"],
+                              cwd=Path(mocap.__file__).resolve().parents[1], text=True,
                               capture_output=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return ""
@@ -134,20 +141,23 @@ def main() -> None:
           f"{args.frames - 1} tracked frames; threads {args.threads or 'default'}; "
           f"{os.cpu_count()} cores, load {load:.1f}")
     paths = ["old", "new"] if args.compare else (["old"] if args.legacy else ["new"])
-    header = f"{'tracker':11s} {'path':4s} {'mean s':>8s} {'median s':>9s} {'evals':>6s}"
+    header = (f"{'tracker':11s} {'path':4s} {'mean s':>8s} {'median s':>9s} {'cpu s':>6s} "
+              f"{'evals':>6s}")
     print(header + (f" {'old/new':>8s}" if args.compare else "")
           + (f" {'/baseline':>9s}" if baseline else ""))
     results: dict[str, float] = {}
     frame_times: dict[str, list] = {}
+    cpu_times: dict[str, list] = {}
     for name in names:
         row = {}
         for path in paths:
             set_path(path == "old", args.backend)
             with thread_budget(args.threads or None):
-                mean, median, evals, times = time_tracker(name, body, rig, seq, args.frames)
+                mean, median, evals, times, cpu = time_tracker(name, body, rig, seq, args.frames)
             frame_times.setdefault(f"{name} {path}", []).append(times)
+            cpu_times.setdefault(f"{name} {path}", []).append(cpu)
             row[path] = median
-            line = f"{name:11s} {path:4s} {mean:8.3f} {median:9.3f} {evals:6.0f}"
+            line = f"{name:11s} {path:4s} {mean:8.3f} {median:9.3f} {np.median(cpu):6.3f} {evals:6.0f}"
             if args.compare and path == "new":
                 line += f" {row['old'] / median:8.2f}"
             elif args.compare:
@@ -159,7 +169,8 @@ def main() -> None:
     set_path(False, "auto")
     if args.frame_times:
         with args.frame_times.open("a") as f:
-            f.write(json.dumps({"commit": _commit(), "load": load, "times": frame_times}) + "\n")
+            f.write(json.dumps({"commit": _commit(), "load": load, "times": frame_times,
+                                "cpu": cpu_times, "load_after": os.getloadavg()[0]}) + "\n")
     if args.save_baseline:
         args.baseline.write_text(json.dumps({
             "seconds_per_frame": results, "path": paths[-1], "threads": args.threads,

@@ -7,9 +7,10 @@
   Otherwise :class:`UnsafeNameError`, one line naming the file and the name.
 * :func:`inside`: a path that is about to be written or deleted, checked to resolve (symlinks
   followed) inside its output folder.
-* :func:`temporary_beside` / :func:`write_text_atomic`: a file is written under an unpredictable
-  name created exclusively in its own folder (:func:`tempfile.mkstemp`: ``O_CREAT | O_EXCL``, so
-  a planted file or symlink of that name is never followed) and renamed over the target.
+* :func:`temporary_beside` / :func:`write_text_atomic` / :func:`write_npz_atomic`: a file is
+  written under an unpredictable name created exclusively in its own folder
+  (:func:`tempfile.mkstemp`: ``O_CREAT | O_EXCL``, so a planted file or symlink of that name is
+  never followed) and renamed over the target.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import contextlib
 import os
 import re
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 #: the longest name accepted as a path component
@@ -111,6 +112,25 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> None:
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     """:func:`write_bytes_atomic` of ``text`` (UTF-8)."""
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_npz_atomic(path: str | os.PathLike, arrays: Mapping[str, object],
+                     compress: bool = True) -> Path:
+    """``np.savez_compressed`` (``np.savez`` when not ``compress``) of ``arrays`` to ``path``
+    through :func:`temporary_beside`: synced, then renamed over ``path`` (a failed write leaves
+    no file that looks complete, and no predictable name is ever written through)."""
+    import numpy as np  # here: this module is imported by commands that must start without numpy
+
+    path = Path(path)
+    save = np.savez_compressed if compress else np.savez
+    with temporary_beside(path, suffix=".tmp") as tmp:
+        fd = os.open(tmp, os.O_WRONLY | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0))
+        with os.fdopen(fd, "wb") as fh:
+            save(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    return path
 
 
 #: patterns of temporary files a killed run leaves in a folder (removed at the next start)

@@ -17,6 +17,7 @@ import numpy as np
 from mocap.body.model import BodyModel
 from mocap.clips.split import MotionSplit, check_training_types, read_split
 from mocap.energy.prior import ParzenPrior, PriorProvenance
+from mocap.safe_files import write_npz_atomic
 
 #: licence and attribution of a prior trained on the Bandai Namco Research Motion Dataset
 BANDAI_NAMCO_LICENCE = (
@@ -115,9 +116,8 @@ def retargeted_chi(entry: ClipEntry, body: BodyModel, cache_dir: str | Path | No
                          f"expected (F, {body.num_dofs})")
     if cache is not None:
         cache.parent.mkdir(parents=True, exist_ok=True)
-        tmp = cache.with_name(cache.name + ".tmp.npz")
-        np.savez(tmp, chi=chi, clip=str(entry.path.name), sha256=entry.sha256, version=version, step=step)
-        tmp.replace(cache)
+        write_npz_atomic(cache, dict(chi=chi, clip=str(entry.path.name), sha256=entry.sha256,
+                                     version=version, step=step), compress=False)
     return chi
 
 

@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mocap.safe_files import write_npz_atomic
+
 FORMAT = "mocap-body-model-v1"
 _FIELDS = {
     "mean": 2, "components": 3, "stddev": 1, "faces": 2, "joint_names": 1,
@@ -124,9 +126,8 @@ def save_body_model_data(data: BodyModelData, path: str | Path) -> Path:
     """Write a body-model file atomically (temporary file, then rename)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez_compressed(
-        tmp, format=np.array(FORMAT),
+    return write_npz_atomic(path, dict(
+        format=np.array(FORMAT),
         mean=data.mean.astype(np.float32), components=data.components.astype(np.float32),
         stddev=data.stddev.astype(np.float32), faces=data.faces.astype(np.int32),
         joint_names=np.array(data.joint_names), joint_parents=data.joint_parents.astype(np.int32),
@@ -136,9 +137,7 @@ def save_body_model_data(data: BodyModelData, path: str | Path) -> Path:
         regressor_index=data.regressor_index.astype(np.int32),
         regressor_weight=data.regressor_weight.astype(np.float32),
         attribution=np.array(data.attribution), build_info=np.array(data.build_info),
-    )
-    tmp.replace(path)
-    return path
+    ))
 
 
 def _validate(d: BodyModelData) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -251,18 +252,21 @@ def run_calibration(o: CalibrateOptions) -> dict:
 
 
 def _write(out: Path, rig: Rig, report: dict, tiles: list[Tile], overwrite: bool) -> None:
-    tmp = out.with_name(out.name + ".partial")
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    tmp.mkdir(parents=True)
-    save_calibration(rig, tmp / "calibration.json")
-    save_calibration(rig, tmp / "Calib.toml", format="pose2sim")
-    (tmp / "report.json").write_text(json.dumps(report, indent=1))
-    if tiles:
-        contact_sheet(tiles, tmp / "contact_sheet.png")
-    if out.exists() and overwrite:
-        shutil.rmtree(out)
-    tmp.rename(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    # a new folder of an unpredictable name beside ``out`` (never a planted one), renamed at the end
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
+    try:
+        tmp.chmod(0o755)                    # mkdtemp's 0700 would stay on the output folder
+        save_calibration(rig, tmp / "calibration.json")
+        save_calibration(rig, tmp / "Calib.toml", format="pose2sim")
+        (tmp / "report.json").write_text(json.dumps(report, indent=1))
+        if tiles:
+            contact_sheet(tiles, tmp / "contact_sheet.png")
+        if out.exists() and overwrite:
+            shutil.rmtree(out)
+        tmp.rename(out)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)      # a failed write leaves nothing half made
 
 
 def summary(report: dict) -> str:

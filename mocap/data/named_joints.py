@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from mocap.data.sequence import GroundTruth
+from mocap.safe_files import write_text_atomic
 
 
 def _num(s: str) -> float:
@@ -122,11 +123,7 @@ def add_ground_truth(sequence: str | Path, names, joints: np.ndarray, valid: np.
         resolve_mapping(names, [v for v in SKELETONS.get(skeleton, {}).values() if v], skeleton)
     gt = GroundTruth(alpha=None, chi=None, joints=joints, markers=None, dof_names=(),
                      joint_names=tuple(names), marker_names=(), joint_valid=valid, skeleton=skeleton)
-    tmp = sequence / ".gt.tmp.npz"
-    write_ground_truth(gt, tmp)
-    tmp.replace(sequence / "gt.npz")
+    write_ground_truth(gt, sequence / "gt.npz")
     info.setdefault("content", {})["gt"] = True
-    meta_tmp = meta_path.with_name(".sequence.json.tmp")
-    meta_tmp.write_text(json.dumps(info, indent=2))
-    meta_tmp.replace(meta_path)
+    write_text_atomic(meta_path, json.dumps(info, indent=2))
     return sequence / "gt.npz"

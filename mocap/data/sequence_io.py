@@ -51,7 +51,7 @@ import numpy as np
 from mocap.cameras import load_calibration, save_calibration
 from mocap.checks import MAX_FRAMES, MAX_IMAGE_SIDE, BadValueError, check_fps, check_int, check_type
 from mocap.data.sequence import Detections, GroundTruth, Sequence
-from mocap.safe_files import UnsafeNameError, check_name, check_names
+from mocap.safe_files import UnsafeNameError, check_name, check_names, write_npz_atomic
 
 FORMAT = "mocap-sequence-v1"
 _COLUMNS = ["frame", "view", "label", "x", "y", "confidence"]
@@ -358,7 +358,8 @@ def _load_detections(path: Path, views: list[str], frames: int | None = None, no
 
 
 def write_ground_truth(g: GroundTruth, path: Path) -> None:
-    """gt.npz of a ground truth (fields that are None are left out)."""
+    """gt.npz of a ground truth (fields that are None are left out), written atomically
+    (:func:`mocap.safe_files.write_npz_atomic`)."""
     arrays = {"joints": g.joints, "joint_names": np.array(g.joint_names), "body": np.array(g.body),
               "skeleton": np.array(g.skeleton)}
     for key in ("alpha", "chi", "markers", "joint_valid", "surface", "surface_faces"):
@@ -368,7 +369,7 @@ def write_ground_truth(g: GroundTruth, path: Path) -> None:
         arrays[key] = np.array(getattr(g, key), dtype=str)
     if g.person_names:
         arrays["person_names"] = np.array(g.person_names, dtype=str)
-    np.savez_compressed(path, **arrays)
+    write_npz_atomic(path, arrays)
 
 
 def load_ground_truth(path: str | Path, frames: int | None = None, nonfinite: str = "refuse",

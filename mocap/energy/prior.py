@@ -33,6 +33,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.special import logsumexp
 
+from mocap.safe_files import write_npz_atomic
+
 PRIOR_FORMAT = "mocap-pose-prior-v2"
 #: formats :meth:`ParzenPrior.load` reads: v1 (samples, DOF names, sigma, source) and v2 (v1 plus
 #: the provenance as JSON under ``meta``)
@@ -138,14 +140,12 @@ class ParzenPrior:
     def save(self, path: str | Path) -> Path:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp.npz")
         meta = {"source": self.source, "samples": len(self.samples), "dofs": len(self.dof_names),
                 "sigma": self.sigma, **self.provenance.to_json()}
-        np.savez(tmp, format=np.array(PRIOR_FORMAT), samples=self.samples,
-                 dof_names=np.array(self.dof_names), sigma=np.array(self.sigma),
-                 source=np.array(self.source), meta=np.array(json.dumps(meta, ensure_ascii=False)))
-        tmp.replace(path)
-        return path
+        return write_npz_atomic(path, dict(
+            format=np.array(PRIOR_FORMAT), samples=self.samples, dof_names=np.array(self.dof_names),
+            sigma=np.array(self.sigma), source=np.array(self.source),
+            meta=np.array(json.dumps(meta, ensure_ascii=False))), compress=False)
 
     @staticmethod
     def load(path: str | Path) -> ParzenPrior:

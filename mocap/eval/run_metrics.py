@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -18,6 +17,7 @@ from mocap.eval.by_name import NameScorer
 from mocap.eval.estimates import FrameEstimate, per_shape
 from mocap.eval.metrics import mmta_mmtp
 from mocap.eval.mismatch import LOST_MM, fit_oracle, mismatch_metrics
+from mocap.safe_files import write_text_atomic
 
 
 def _valid(gt, F: int):
@@ -111,9 +111,7 @@ def _cached(path: Path | None, key: str, compute, memo: dict, **info) -> dict:
     metrics = compute()
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        tmp.write_text(json.dumps({"key": key, **info, "metrics": metrics}))
-        os.replace(tmp, path)
+        write_text_atomic(path, json.dumps({"key": key, **info, "metrics": metrics}))
     memo[key] = metrics
     return metrics
 

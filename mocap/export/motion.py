@@ -42,13 +42,14 @@ reads a tracker's diagnostics.
 from __future__ import annotations
 
 import hashlib
-import os
 import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from mocap.safe_files import write_npz_atomic
 
 FORMAT = "mocap-motion-v1"
 REQUIRED = ("format", "fps", "frame_index", "timestamps", "chi", "dof_names", "alpha", "joints",
@@ -231,22 +232,6 @@ def write_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
     if missing:
         raise ValueError(f"motion arrays miss {', '.join(missing)}")
     return write_npz_atomic(path, arrays)
-
-
-def write_npz_atomic(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
-    """``np.savez_compressed`` to ``path`` atomically: a temporary file beside it, synced, then
-    ``os.replace`` (a failed write leaves no file that looks complete)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
 
 
 PER_FRAME = ("tracker_landmarks", "tracker_landmark_names",

@@ -89,8 +89,8 @@ def people_motion_arrays(body, people: Mapping[int, Mapping[int, object]], frame
 
 
 def write_people_motion(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
-    """Write the arrays atomically (:func:`mocap.export.motion.write_npz_atomic`)."""
-    from mocap.export.motion import write_npz_atomic
+    """Write the arrays atomically (:func:`mocap.safe_files.write_npz_atomic`)."""
+    from mocap.safe_files import write_npz_atomic
 
     return write_npz_atomic(path, arrays)
 

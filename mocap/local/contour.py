@@ -17,7 +17,7 @@ moved shows up as a tail of long matches, which must survive the rejection.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -30,7 +30,6 @@ from mocap.cameras import (
     pixel_rays,
     pixels_from_camera,
     plucker_from_rays,
-    view_rigs,
 )
 from mocap.compiled import HAVE_NUMBA, njit
 from mocap.local.nearest import NearestPoints
@@ -38,14 +37,55 @@ from mocap.local.settings import ContourSettings
 from mocap.local.solver import PointLines
 from mocap.render import get_rasterizer
 
+if HAVE_NUMBA:
+    from mocap.local.nearest import bucket_grid, nearest_on_grid
+
 
 @dataclass(frozen=True)
 class ObservedContours:
     """Per view: contour points (M, 2) in camera pixels and their nearest-point index (None:
-    no contour)."""
+    no contour). ``cache``: what the matcher derives from them once per frame (the observed
+    outline is the same for every iteration): the points' Plücker lines per rig
+    (:meth:`ContourMatcher.observed_lines`), the grids packed for the compiled matcher
+    (:func:`packed_grids`)."""
 
     points: list[np.ndarray]
     trees: list[NearestPoints | None]
+    cache: dict = field(default_factory=dict, compare=False, repr=False)
+
+
+def _cat(arrays: list[np.ndarray], dtype) -> np.ndarray:
+    """np.concatenate, or an empty 1D array of ``dtype`` for no arrays."""
+    return np.concatenate(arrays) if arrays else np.zeros(0, dtype)
+
+
+def packed_grids(observed: ObservedContours) -> tuple:
+    """The views' nearest-point grids in flat arrays (once per frame, kept in the cache):
+    sorted coordinates xs, ys and ids (P,), bucket offsets (all views' in a row), the
+    points (P, 2), per view (origin x, origin y, cell) (C, 3) and (nx, ny, first point,
+    first offset, point count) (C, 5) int64; a view without a contour has point count 0."""
+    if "grids" not in observed.cache:
+        C = len(observed.points)
+        fpar, ipar = np.zeros((C, 3)), np.zeros((C, 5), np.int64)
+        xs, ys, ids, starts = [], [], [], []
+        n_pts = n_start = 0
+        for c, (pts, tree) in enumerate(zip(observed.points, observed.trees, strict=True)):
+            if tree is None:
+                ipar[c, 2:4] = n_pts, n_start
+                continue
+            fpar[c] = tree.origin[0], tree.origin[1], tree.cell
+            ipar[c] = tree.nx, tree.ny, n_pts, n_start, len(pts)
+            xs.append(tree.xs)
+            ys.append(tree.ys)
+            ids.append(tree.order)
+            starts.append(tree.start)
+            n_pts += len(pts)
+            n_start += len(tree.start)
+        points = [p for p in observed.points if len(p)]
+        observed.cache["grids"] = (_cat(xs, np.float64), _cat(ys, np.float64), _cat(ids, np.int64),
+                                   _cat(starts, np.int64),
+                                   np.concatenate(points) if points else np.zeros((0, 2)), fpar, ipar)
+    return observed.cache["grids"]
 
 
 def observed_contours(masks: np.ndarray) -> ObservedContours:
@@ -94,6 +134,171 @@ if HAVE_NUMBA:
                     mark[k, edge_vertices[e, 1]] = True
 
 
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _pixels_in_two_rigs(X, K, dist, distort, skew, out):
+        """:func:`~mocap.cameras.pixels_from_camera` of camera coordinates X (C, 3, V) in two
+        rigs that share R, t and distortion (the full-size one and the visibility one) in one
+        pass: K (2, C, 3, 3), dist (C, 5), distort (apply the distortion model: some view
+        has one), skew (2,) (add K[0, 1] y) -> out (2, C, V, 2); its arithmetic, op for op."""
+        for c in range(X.shape[0]):
+            k1, k2, p1, p2, k3 = dist[c, 0], dist[c, 1], dist[c, 2], dist[c, 3], dist[c, 4]
+            for v in range(X.shape[2]):
+                inv_z = 1.0 / X[c, 2, v]
+                x = X[c, 0, v] * inv_z
+                y = X[c, 1, v] * inv_z
+                if distort:
+                    x2, y2, xy = x * x, y * y, x * y
+                    r2 = x2 + y2
+                    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+                    x, y = (x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x2),
+                            y * radial + p1 * (r2 + 2.0 * y2) + 2.0 * p2 * xy)
+                for r in range(2):
+                    u = K[r, c, 0, 0] * x + K[r, c, 0, 2]
+                    if skew[r]:
+                        u += K[r, c, 0, 1] * y
+                    out[r, c, v, 0] = u
+                    out[r, c, v, 1] = K[r, c, 1, 1] * y + K[r, c, 1, 2]
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _pixel_boxes(px, h, w, out):
+        """out[c] = (x, y, width, height): the pixel box of view c's finite points px[c] (V, 2)
+        (grown to whole pixels, clipped to the h x w image; width 0: none inside). It holds
+        every pixel a mesh drawn from these points covers (pixel centres inside its triangles)."""
+        for c in range(px.shape[0]):
+            lo_x = lo_y = np.inf
+            hi_x = hi_y = -np.inf
+            for v in range(px.shape[1]):
+                x = px[c, v, 0]
+                y = px[c, v, 1]
+                if np.isfinite(x) and np.isfinite(y):
+                    lo_x, hi_x = min(lo_x, x), max(hi_x, x)
+                    lo_y, hi_y = min(lo_y, y), max(hi_y, y)
+            x0 = max(np.floor(lo_x), 0.0)
+            y0 = max(np.floor(lo_y), 0.0)
+            x1 = min(np.ceil(hi_x), w - 1.0)
+            y1 = min(np.ceil(hi_y), h - 1.0)
+            if not (x0 <= x1 and y0 <= y1):
+                out[c, 0] = out[c, 1] = out[c, 2] = out[c, 3] = 0
+                continue
+            out[c, 0], out[c, 1] = int(x0), int(y0)
+            out[c, 2], out[c, 3] = int(x1 - x0) + 1, int(y1 - y0) + 1
+
+    @njit(cache=True)
+    def _visible_marks(mark, px, bands, stride, out, count):
+        """Per view c: every ``stride``-th marked vertex (mark (C, V) bool) whose pixel px[c]
+        (V, 2) lies in the image and, rounded half to even, on the band bands[c] (h, w) uint8
+        (:func:`outline_band`) -> out[c, :count[c]] (ids in increasing order)."""
+        C, V = mark.shape
+        h, w = bands.shape[1], bands.shape[2]
+        for c in range(C):
+            n = 0
+            k = 0
+            for v in range(V):
+                if not mark[c, v]:
+                    continue
+                k += 1
+                if (k - 1) % stride != 0:
+                    continue
+                x = px[c, v, 0]
+                y = px[c, v, 1]
+                if not (x >= 0 and x <= w - 1 and y >= 0 and y <= h - 1):
+                    continue
+                if bands[c, int(np.rint(y)), int(np.rint(x))] > 0:
+                    out[c, n] = v
+                    n += 1
+            count[c] = n
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _percentile90(x):
+        """:func:`percentile90` compiled (x is reordered)."""
+        n = x.shape[0]
+        pos = 0.9 * (n - 1)
+        lo = int(np.floor(pos))
+        hi = min(lo + 1, n - 1)
+        part = np.partition(x, lo)
+        a = part[lo]
+        b = a
+        if hi > lo:                      # the next order statistic: the least above lo
+            b = part[hi]
+            for k in range(hi + 1, n):
+                b = min(b, part[k])
+        t = pos - lo
+        return b - (b - a) * (1.0 - t) if t >= 0.5 else a + (b - a) * t
+
+    @njit(cache=True)
+    def _pair_views(vis, count, px, xs, ys, ids, starts, points, fpar, ipar, stride,
+                    reject_factor, min_reject_px, max_distance_px, out_vid, out_oid, counts):
+        """:meth:`ContourMatcher.pairs` for every view in one pass: vis (C, V) visible vertex
+        ids (count (C,) of them per view), px (C, V, 2) their pixels, the observed grids of
+        :func:`packed_grids`; writes the kept pairs (vertex, observed point) view by view,
+        forward then backward, into out_vid, out_oid, their number per view into counts, and
+        returns the total."""
+        t = 0
+        for c in range(vis.shape[0]):
+            nv = count[c]
+            nx, ny, first, first_start, m = ipar[c, 0], ipar[c, 1], ipar[c, 2], ipar[c, 3], ipar[c, 4]
+            if m == 0 or nv == 0:
+                counts[c] = 0
+                continue
+            p = np.empty((nv, 2))
+            for k in range(nv):
+                p[k, 0] = px[c, vis[c, k], 0]
+                p[k, 1] = px[c, vis[c, k], 1]
+            obs = points[first:first + m]
+            nb = (m + stride - 1) // stride
+            dist = np.empty(nv + nb)
+            idx = np.empty(nv, np.int64)
+            nearest_on_grid(xs[first:first + m], ys[first:first + m], ids[first:first + m],
+                            starts[first_start:first_start + nx * ny + 1], fpar[c, 0], fpar[c, 1],
+                            fpar[c, 2], nx, ny, 4, obs, p, dist[:nv], idx)
+            q = np.empty((nb, 2))
+            for j in range(nb):
+                q[j, 0] = obs[j * stride, 0]
+                q[j, 1] = obs[j * stride, 1]
+            cell, bnx, bny, ox, oy, order, bstart, bxs, bys = bucket_grid(p, -1.0)
+            back = np.empty(nb, np.int64)
+            nearest_on_grid(bxs, bys, order, bstart, ox, oy, cell, bnx, bny, 4, p, q, dist[nv:], back)
+            thr = min(max(reject_factor * _percentile90(dist.copy()), min_reject_px), max_distance_px)
+            n = 0
+            for k in range(nv):
+                if dist[k] <= thr:
+                    out_vid[t] = vis[c, k]
+                    out_oid[t] = first + idx[k]
+                    t += 1
+                    n += 1
+            for j in range(nb):
+                if dist[nv + j] <= thr:
+                    out_vid[t] = vis[c, back[j]]
+                    out_oid[t] = first + j * stride
+                    t += 1
+                    n += 1
+            counts[c] = n
+        return t
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _gather_pairs(vid, oid, verts, labels, obs_d, obs_m, X, limbs, D, M):
+        """X, limbs = verts[vid], labels[vid]; D, M = obs_d[oid], obs_m[oid] (one pass: numpy's
+        four fancy-indexing copies of ~12,000 rows cost ~0.9 ms)."""
+        for n in range(vid.shape[0]):
+            v, o = vid[n], oid[n]
+            limbs[n] = labels[v]
+            for k in range(3):
+                X[n, k] = verts[v, k]
+                D[n, k] = obs_d[o, k]
+                M[n, k] = obs_m[o, k]
+
+
 def percentile90(x: np.ndarray) -> float:
     """``np.percentile(x, 90)`` (linear interpolation, numpy's arithmetic) by partial sort:
     the same value without np.percentile's per-call overhead (~0.4 ms; 8 calls per
@@ -108,16 +313,20 @@ def percentile90(x: np.ndarray) -> float:
     return b - (b - a) * (1.0 - t) if t >= 0.5 else a + (b - a) * t
 
 
-def outline_band(mask: np.ndarray, kernel3: np.ndarray, kernel_tol: np.ndarray) -> np.ndarray:
+def outline_band(mask: np.ndarray, kernel3: np.ndarray, kernel_tol: np.ndarray,
+                 box: tuple[int, int, int, int] | None = None, out: np.ndarray | None = None
+                 ) -> np.ndarray:
     """(h, w) bool mask -> (h, w) uint8, nonzero within ``kernel_tol`` of the mask's outline
     (its pixels with a 3x3 neighbour outside it; beyond the image border counts as inside,
     cv2.erode's default): ``dilate(m - erode(m, kernel3), kernel_tol)``, taken on the mask's
     bounding box grown by the tolerance's radius + 1. The same image (tested): the crop's
     edge pixels are 0, so the erosion there does not depend on what lies beyond, and the
-    dilated outline stays inside; zeros elsewhere. A person covers ~15 % of the frame."""
+    dilated outline stays inside; zeros elsewhere. A person covers ~15 % of the frame.
+    ``box`` (x, y, width, height): a box known to hold every mask pixel (the same image;
+    default: ``cv2.boundingRect``); ``out``: an (h, w) uint8 image of zeros to write into."""
     m = np.ascontiguousarray(mask).view(np.uint8)
-    out = np.zeros_like(m)
-    x, y, bw, bh = cv2.boundingRect(m)
+    out = np.zeros_like(m) if out is None else out
+    x, y, bw, bh = cv2.boundingRect(m) if box is None else box
     if bw == 0:
         return out
     g = kernel_tol.shape[0] // 2 + 1
@@ -148,6 +357,8 @@ class ContourMatcher:
         self.small = rig.scaled(visibility_scale)
         w, h = (int(v) for v in self.small.sizes[0])
         self.small_size = (h, w)
+        self.two_K = np.ascontiguousarray(np.stack([self.small.K, rig.K]), np.float64)   # (2, C, 3, 3)
+        self.two_skew = np.array([np.any(self.small.K[:, 0, 1]), np.any(rig.K[:, 0, 1])])
         self.raster = get_rasterizer(body.faces, body.num_vertices)
         r = int(np.ceil(visibility_tolerance_px))
         self.kernel3 = np.ones((3, 3), np.uint8)
@@ -155,16 +366,32 @@ class ContourMatcher:
         self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
         self.max_distance_px = max_distance * float(rig.sizes[0][1])
         self.stride, self.observed_stride = stride, observed_stride
-        self.view_rigs = view_rigs(rig)        # 16 projections / back-projections per iteration
+
+    def pixels(self, cam_xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Camera coordinates (C, 3, V) -> pixels (C, V, 2) in the visibility rig and in the
+        rig, and the depth (C, V) (compiled in one pass where the coordinates are float64:
+        :func:`_pixels_in_two_rigs`, the same floats)."""
+        if not (HAVE_NUMBA and cam_xyz.dtype == np.float64):
+            px_small, depth = pixels_from_camera(self.small, cam_xyz)
+            return px_small, pixels_from_camera(self.rig, cam_xyz)[0], depth
+        out = np.empty((2, cam_xyz.shape[0], cam_xyz.shape[2], 2))
+        _pixels_in_two_rigs(np.ascontiguousarray(cam_xyz), self.two_K, self.rig.dist.astype(np.float64),
+                            bool(np.any(self.rig.dist)), self.two_skew, out)
+        return out[0], out[1], cam_xyz[:, 2, :]
+
+    def contour_marks(self, verts: np.ndarray, centers: np.ndarray) -> np.ndarray:
+        """(C, V) bool: the vertices on the contour generator seen from each camera centre
+        (C, 3) (compiled: :func:`_contour_marks`)."""
+        mark = np.zeros((len(centers), len(verts)), bool)
+        _contour_marks(np.ascontiguousarray(verts, np.float64), self.faces64,
+                       np.ascontiguousarray(centers, np.float64), self.edge_faces,
+                       self.edge_vertices, mark)
+        return mark
 
     def contour_vertices(self, verts: np.ndarray, centers: np.ndarray) -> list[np.ndarray]:
         """Vertex ids on the contour generator seen from each camera centre (C, 3)."""
         if HAVE_NUMBA:
-            mark = np.zeros((len(centers), len(verts)), bool)
-            _contour_marks(np.ascontiguousarray(verts, np.float64), self.faces64,
-                           np.ascontiguousarray(centers, np.float64), self.edge_faces,
-                           self.edge_vertices, mark)
-            return [np.flatnonzero(m) for m in mark]
+            return [np.flatnonzero(m) for m in self.contour_marks(verts, centers)]
         tri = verts[self.body.faces]
         normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         centroids = tri.mean(axis=1)
@@ -180,20 +407,102 @@ class ContourMatcher:
             out.append(np.flatnonzero(mark))
         return out
 
-    def _lines(self, views: list[tuple[int, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
-        """Plücker lines (directions, moments; (M, 3) each, in order) of the observed pixels
-        q (M_c, 2) of the listed views (c, q): back-projected for all views in one call (16
-        calls per iteration cost more than the rays), the views padded to one length with
-        their principal point."""
-        n = max(len(q) for _, q in views)
+    def visible_contour_vertices(self, verts: np.ndarray, px_small: np.ndarray,
+                                 model_masks: np.ndarray) -> list[np.ndarray]:
+        """Per view the ids of the contour-generator vertices (every ``stride``-th) that are
+        visible: in the image, and projecting (px_small (C, V, 2), rounded) onto the outline
+        band of the model's own silhouette (model_masks (C, h, w)). Compiled: one pass over all
+        views (:func:`_visible_marks`); otherwise :func:`outline_band` per view."""
+        h, w = self.small_size
+        if HAVE_NUMBA:
+            mark = self.contour_marks(verts, self.rig.centers)
+            px_small = np.ascontiguousarray(px_small, np.float64)
+            boxes = np.zeros((len(mark), 4), np.int64)
+            _pixel_boxes(px_small, h, w, boxes)
+            bands = np.zeros(model_masks.shape, np.uint8)
+            for c in range(len(mark)):
+                outline_band(model_masks[c], self.kernel3, self.kernel_tol, tuple(boxes[c]), bands[c])
+            out = np.empty(mark.shape, np.int64)
+            count = np.zeros(len(mark), np.int64)
+            _visible_marks(mark, px_small, bands, self.stride, out, count)
+            return [out[c, :count[c]] for c in range(len(mark))]
+        visible = []
+        for c, vid in enumerate(self.contour_vertices(verts, self.rig.centers)):
+            vid = vid[:: self.stride]
+            near_outline = outline_band(model_masks[c], self.kernel3, self.kernel_tol)
+            ps = px_small[c, vid]
+            inside = (ps[:, 0] >= 0) & (ps[:, 0] <= w - 1) & (ps[:, 1] >= 0) & (ps[:, 1] <= h - 1)
+            vid, ps = vid[inside], ps[inside]
+            ui, vi = np.round(ps).astype(int).T
+            visible.append(vid[near_outline[vi, ui] > 0])
+        return visible
+
+    def observed_lines(self, observed: ObservedContours) -> tuple[np.ndarray, np.ndarray]:
+        """Plücker lines (directions, moments; (P, 3) each) of every observed contour point,
+        the views' points one after the other, back-projected in one call for all views (the
+        views padded to one length with their principal point), once per frame: kept in
+        ``observed.cache``."""
+        cached = observed.cache.get(("lines", id(self.rig)))
+        if cached is not None and cached[0] is self.rig:
+            return cached[1], cached[2]
+        n = max((len(q) for q in observed.points), default=0)
         if n == 0:
             return np.zeros((0, 3)), np.zeros((0, 3))
         px = np.broadcast_to(self.rig.K[:, :2, 2][:, None, :], (len(self.rig), n, 2)).copy()
-        for c, q in views:
+        for c, q in enumerate(observed.points):
             px[c, : len(q)] = q
         d, mo = plucker_from_rays(*pixel_rays(self.rig, px))
-        return (np.concatenate([d[c, : len(q)] for c, q in views]),
-                np.concatenate([mo[c, : len(q)] for c, q in views]))
+        lines = (np.concatenate([d[c, : len(q)] for c, q in enumerate(observed.points)]),
+                 np.concatenate([mo[c, : len(q)] for c, q in enumerate(observed.points)]))
+        observed.cache[("lines", id(self.rig))] = (self.rig, *lines)
+        return lines
+
+    def pairs(self, px: np.ndarray, visible: list[np.ndarray], observed: ObservedContours
+              ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """Matched pairs, both directions: each visible model contour point (px (C, V, 2)
+        full-size pixels, ``visible`` the ids per view) to its closest observed contour point,
+        and each ``observed_stride``-th observed contour point to its closest model contour
+        point, so that observed outline no model part explains still pulls the model; pairs
+        farther than the rejection threshold dropped. Returns vertex ids (N,), observed point
+        ids (N,) (into the views' points one after the other) and the count per view.
+        Compiled: one pass over all views (:func:`_pair_views`)."""
+        if HAVE_NUMBA:
+            xs, ys, ids, starts, points, fpar, ipar = packed_grids(observed)
+            count = np.array([len(v) for v in visible], np.int64)
+            vis = np.zeros((len(visible), max(1, int(count.max()))), np.int64)
+            for c, v in enumerate(visible):
+                vis[c, :len(v)] = v
+            size = int(sum(count[c] + -(-ipar[c, 4] // self.observed_stride)
+                           for c in range(len(visible)) if ipar[c, 4] and count[c]))
+            vid, oid = np.empty(size, np.int64), np.empty(size, np.int64)
+            counts = np.zeros(len(visible), np.int64)
+            n = _pair_views(vis, count, np.ascontiguousarray(px, np.float64), xs, ys, ids, starts,
+                            points, fpar, ipar, self.observed_stride, self.reject_factor,
+                            self.min_reject_px, self.max_distance_px, vid, oid, counts)
+            return vid[:n], oid[:n], [int(k) for k in counts]
+        vids, oids, counts = [], [], []
+        first = 0
+        for c, vid in enumerate(visible):
+            tree, obs = observed.trees[c], observed.points[c]
+            if tree is None or len(vid) == 0:
+                counts.append(0)
+                first += len(obs)
+                continue
+            p = px[c, vid]
+            dist, idx = tree.query(p)
+            obs_ids = np.arange(0, len(obs), self.observed_stride)
+            back_dist, back_idx = NearestPoints(p).query(obs[obs_ids])
+            vid = np.concatenate([vid, vid[back_idx]])
+            oid = np.concatenate([idx, obs_ids])           # the observed points paired
+            dist = np.concatenate([dist, back_dist])
+            thr = min(max(self.reject_factor * percentile90(dist), self.min_reject_px),
+                      self.max_distance_px)
+            keep = dist <= thr
+            vids.append(vid[keep])
+            oids.append(oid[keep] + first)
+            counts.append(int(keep.sum()))
+            first += len(obs)
+        return _cat(vids, np.int64), _cat(oids, np.int64), counts
 
     def __call__(self, verts: np.ndarray, observed: ObservedContours) -> tuple[PointLines, dict]:
         """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
@@ -201,53 +510,22 @@ class ContourMatcher:
         h, w = self.small_size
         # camera coordinates once: the visibility rig (rescaled) shares R, t with the rig
         cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
-        px_small, depth_small = pixels_from_camera(self.small, cam_xyz)
+        px_small, px, depth_small = self.pixels(cam_xyz)
         model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
-        X, limbs, Q = [], [], []
-        counts, empty = [], []
-        generators = self.contour_vertices(verts, self.rig.centers)
-        for c, cam in enumerate(self.view_rigs):
-            tree = observed.trees[c]
-            if tree is None:
-                counts.append(0)
-                empty.append(self.rig.names[c])
-                continue
-            vid = generators[c][:: self.stride]
-            if len(vid) == 0:
-                counts.append(0)
-                continue
-            # visible: the vertex projects onto the outline of the model's own silhouette
-            near_outline = outline_band(model_masks[c], self.kernel3, self.kernel_tol)
-            ps = px_small[c, vid]
-            inside = (ps[:, 0] >= 0) & (ps[:, 0] <= w - 1) & (ps[:, 1] >= 0) & (ps[:, 1] <= h - 1)
-            vid, ps = vid[inside], ps[inside]
-            ui, vi = np.round(ps).astype(int).T
-            vid = vid[near_outline[vi, ui] > 0]
-            if len(vid) == 0:
-                counts.append(0)
-                continue
-            p = pixels_from_camera(cam, cam_xyz[c:c + 1, :, vid])[0][0]
-            # both directions: each model contour point to its closest observed contour
-            # point, and each observed contour point to its closest model contour point, so
-            # that observed outline no model part explains still pulls the model
-            dist, idx = tree.query(p)
-            obs_pts = observed.points[c][:: self.observed_stride]
-            back_dist, back_idx = NearestPoints(p).query(obs_pts)
-            vid = np.concatenate([vid, vid[back_idx]])
-            q = np.concatenate([observed.points[c][idx], obs_pts])
-            dist = np.concatenate([dist, back_dist])
-            thr = min(max(self.reject_factor * percentile90(dist), self.min_reject_px),
-                      self.max_distance_px)
-            keep = dist <= thr
-            vid, q = vid[keep], q[keep]
-            X.append(verts[vid])
-            limbs.append(self.body.part_labels[vid])
-            Q.append((c, q))
-            counts.append(int(len(vid)))
-        if X:
-            pts = np.concatenate(X).astype(np.float64)
-            D, M = self._lines(Q)
-            corr = PointLines(pts, np.concatenate(limbs), D, M, np.ones(len(pts)))
+        visible = self.visible_contour_vertices(verts, px_small, model_masks)
+        vid, oid, counts = self.pairs(px, visible, observed)
+        empty = [self.rig.names[c] for c, t in enumerate(observed.trees) if t is None]
+        if len(vid) and HAVE_NUMBA:
+            X, D, M = np.empty((len(vid), 3)), np.empty((len(vid), 3)), np.empty((len(vid), 3))
+            labels = self.body.part_labels
+            limbs = np.empty(len(vid), labels.dtype)
+            _gather_pairs(vid, oid, np.ascontiguousarray(verts, np.float64), labels,
+                          *self.observed_lines(observed), X, limbs, D, M)
+            corr = PointLines(X, limbs, D, M, np.ones(len(vid)))
+        elif len(vid):
+            obs_d, obs_m = self.observed_lines(observed)
+            corr = PointLines(verts[vid].astype(np.float64), self.body.part_labels[vid],
+                              obs_d[oid], obs_m[oid], np.ones(len(vid)))
         else:
             z = np.zeros((0, 3))
             corr = PointLines(z, np.zeros(0, int), z, z, np.zeros(0))

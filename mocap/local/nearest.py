@@ -7,12 +7,15 @@ the local tracker's time; points on an image outline are spread evenly over a pl
 buckets of a few pixels answer the same question in a few dozen operations.
 
 Each query scans the rings of buckets around its own (the bucket of the query clamped into
-the grid) outwards; after ring r every point not yet seen lies at least r x cell away (in
-x or y), so the scan stops once the best distance is below that. A query still unsettled
-after ``max_ring`` rings (far from every point: a lost limb, a pose hypothesis far off) is
-answered by a k-d tree instead. The answer is the exact nearest point (ties, which need a
-query exactly equidistant from two points, go to the lower index on the grid);
-distances are Euclidean. Without numba every query runs on cKDTree (said once).
+the grid) outwards, a ring's top and bottom rows each as one run of the points sorted by
+bucket; every point not yet seen lies in a bucket outside the scanned square, at least the
+query's distance to the nearest side of the square that is not the grid's edge away, so
+the scan stops once the best distance is below that. A query still unsettled after
+``max_ring`` rings (far from every point: a lost limb, a pose hypothesis far off) is
+answered by brute force over all points instead. The answer is the exact nearest point
+(ties, which need a query exactly equidistant from two points, go to the lowest index);
+distances are Euclidean. Without numba every query runs on cKDTree (said once; its ties
+may go to another of the equidistant points).
 """
 
 from __future__ import annotations
@@ -26,11 +29,12 @@ from mocap.energy.fallback import warn_once
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _query(points, order, start, origin_x, origin_y, cell, nx, ny, max_ring, queries, dist, idx):
-        """points (M, 2); order (M,) point ids sorted by bucket; start (nx * ny + 1,) bucket
-        offsets into ``order`` (bucket b = iy * nx + ix); queries (N, 2) -> dist, idx; a
-        query not settled within ``max_ring`` rings gets idx -1 (the caller asks the k-d
-        tree: far queries would scan many empty buckets)."""
+    def _query(xs, ys, ids, start, origin_x, origin_y, cell, nx, ny, max_ring, queries, dist, idx):
+        """xs, ys (M,) the points' coordinates sorted by bucket, ids (M,) their ids; start
+        (nx * ny + 1,) bucket offsets (bucket b = iy * nx + ix); queries (N, 2) -> dist, idx;
+        a query not settled within ``max_ring`` rings gets idx -1 (the caller asks the k-d
+        tree: far queries would scan many empty buckets). A ring's top and bottom rows are
+        each one run of the sorted points."""
         inv = 1.0 / cell
         for n in range(queries.shape[0]):
             qx = queries[n, 0]
@@ -41,28 +45,41 @@ if HAVE_NUMBA:
             best_i = -1
             r = 0
             while True:
-                y_lo = cy - r
-                y_hi = cy + r
+                x_lo, x_hi, y_lo, y_hi = cx - r, cx + r, cy - r, cy + r
                 for iy in range(max(y_lo, 0), min(y_hi, ny - 1) + 1):
-                    on_edge_row = iy == y_lo or iy == y_hi
-                    step = 1 if on_edge_row else 2 * r
-                    ix = cx - r
-                    while ix <= cx + r:
-                        if 0 <= ix < nx:
-                            b = iy * nx + ix
-                            for k in range(start[b], start[b + 1]):
-                                i = order[k]
-                                dx = points[i, 0] - qx
-                                dy = points[i, 1] - qy
-                                d = dx * dx + dy * dy
-                                if d < best or (d == best and i < best_i):
-                                    best = d
-                                    best_i = i
-                        ix += step if step > 0 else 1
-                # every point outside rings 0..r is at least r * cell away
-                if best_i >= 0 and best < (r * cell) ** 2 * (1.0 - 1e-9):
+                    edge = iy == y_lo or iy == y_hi
+                    for side in range(1 if edge else 2):
+                        # the row's run of buckets: all of it on the top and bottom rows,
+                        # else its first and its last bucket
+                        a = max(x_lo, 0) if edge else (x_lo if side == 0 else x_hi)
+                        b = min(x_hi, nx - 1) if edge else a
+                        if a < 0 or b >= nx:
+                            continue
+                        for k in range(start[iy * nx + a], start[iy * nx + b + 1]):
+                            dx = xs[k] - qx
+                            dy = ys[k] - qy
+                            d = dx * dx + dy * dy
+                            i = ids[k]
+                            if d < best or (d == best and i < best_i):
+                                best = d
+                                best_i = i
+                # a point not yet seen lies in a bucket outside the scanned square, beyond one
+                # of its sides that is not the grid's edge: at least ``gap`` away
+                gap = np.inf
+                if x_lo > 0:
+                    gap = min(gap, qx - (origin_x + x_lo * cell))
+                if x_hi < nx - 1:
+                    gap = min(gap, origin_x + (x_hi + 1) * cell - qx)
+                if y_lo > 0:
+                    gap = min(gap, qy - (origin_y + y_lo * cell))
+                if y_hi < ny - 1:
+                    gap = min(gap, origin_y + (y_hi + 1) * cell - qy)
+                if gap == np.inf:             # the whole grid seen
                     break
-                if r >= max_ring or (r > nx and r > ny):
+                gap -= 1e-7                   # the bucket arithmetic's rounding (pixels ~1e3)
+                if best_i >= 0 and gap > 0 and best < gap * gap:
+                    break
+                if r >= max_ring:
                     best_i = -1
                     break
                 r += 1
@@ -73,7 +90,32 @@ if HAVE_NUMBA:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _buckets(points, cell):
+    def nearest_on_grid(xs, ys, ids, start, origin_x, origin_y, cell, nx, ny, max_ring, points,
+                        queries, dist, idx):
+        """:func:`_query`, and the queries it leaves unsettled (far from every point) by
+        brute force over points (M, 2) (ties to the lower id): the exact nearest point of
+        every query, for compiled callers (no k-d tree)."""
+        _query(xs, ys, ids, start, origin_x, origin_y, cell, nx, ny, max_ring, queries, dist, idx)
+        for n in range(queries.shape[0]):
+            if idx[n] >= 0:
+                continue
+            best = np.inf
+            best_i = -1
+            for i in range(points.shape[0]):
+                dx = points[i, 0] - queries[n, 0]
+                dy = points[i, 1] - queries[n, 1]
+                d = dx * dx + dy * dy
+                if d < best:
+                    best = d
+                    best_i = i
+            dist[n] = np.sqrt(best)
+            idx[n] = best_i
+
+
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def bucket_grid(points, cell):
         """The grid over points (M, 2): cell (the argument where > 0, else ~2 points per
         bucket), nx, ny, origin (x, y), and the point ids ordered by bucket (a stable
         counting sort: the order of a stable argsort) with each bucket's start offset.
@@ -105,10 +147,15 @@ if HAVE_NUMBA:
             start[b + 1] += start[b]
         fill = start[:-1].copy()
         order = np.empty(points.shape[0], np.int64)
+        xs = np.empty(points.shape[0])
+        ys = np.empty(points.shape[0])
         for i in range(points.shape[0]):
-            order[fill[bucket[i]]] = i
+            k = fill[bucket[i]]
+            order[k] = i
+            xs[k] = points[i, 0]
+            ys[k] = points[i, 1]
             fill[bucket[i]] += 1
-        return cell, nx, ny, lo_x, lo_y, order, start
+        return cell, nx, ny, lo_x, lo_y, order, start, xs, ys
 
 
 class NearestPoints:
@@ -128,7 +175,7 @@ class NearestPoints:
         if not self.compiled:
             warn_once("nearest", "contour matching queries a k-d tree (cKDTree), slower")
             return
-        cell, self.nx, self.ny, ox, oy, self.order, self.start = _buckets(
+        cell, self.nx, self.ny, ox, oy, self.order, self.start, self.xs, self.ys = bucket_grid(
             pts, -1.0 if cell is None else float(cell))
         self.cell = float(cell)
         self.origin = np.array([ox, oy])
@@ -141,17 +188,14 @@ class NearestPoints:
             return self.tree.query(q)
         dist = np.empty(len(q))
         idx = np.empty(len(q), np.int64)
-        _query(self.points, self.order, self.start, float(self.origin[0]), float(self.origin[1]),
-               self.cell, self.nx, self.ny, self.max_ring, q, dist, idx)
-        far = idx < 0
-        if far.any():
-            dist[far], idx[far] = self.tree.query(q[far])
+        nearest_on_grid(self.xs, self.ys, self.order, self.start, float(self.origin[0]),
+                        float(self.origin[1]), self.cell, self.nx, self.ny, self.max_ring,
+                        self.points, q, dist, idx)
         return dist, idx
 
     @property
     def tree(self) -> cKDTree:
-        """The k-d tree over the same points (built on first use): far queries, and the
-        whole answer without numba."""
+        """The k-d tree over the same points (built on first use): the answer without numba."""
         if self._tree is None:
             self._tree = cKDTree(self.points)
         return self._tree

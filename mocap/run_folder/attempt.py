@@ -14,7 +14,7 @@ from pathlib import Path
 from mocap.run_folder.lock import run_lock
 from mocap.run_folder.manifest import manifest_problem, write_manifest
 from mocap.run_folder.read import write_json
-from mocap.run_folder.resume import PREVIOUS, drop_previous
+from mocap.run_folder.resume import PREVIOUS, describe_run, drop_previous
 from mocap.safe_files import name_problem, remove_temporaries
 
 #: the note added to an exception raised after every check passed (while tracking or writing the
@@ -82,8 +82,10 @@ def run_attempt(out_dir: Path, sink) -> Iterator[None]:
 
 
 def seal_run(out_dir: Path, sink, metrics: dict, recording: bool, overrides) -> None:
-    """After motion.npz is written: metrics.json, the recording, and last the manifest."""
+    """After motion.npz is written: metrics.json, the recording, and last the manifest (and the
+    folder's ``.hydra/`` describing this run, whatever a refused process wrote there)."""
     write_json(out_dir / "metrics.json", metrics)
+    describe_run(out_dir, metrics.get("config"), overrides)
     sink.finish(metrics)
     write_manifest(out_dir, ["motion.npz", "metrics.json", *(["recording.rrd"] if recording else [])],
                    overrides)

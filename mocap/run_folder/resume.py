@@ -19,6 +19,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from mocap.run_folder.manifest import MANIFEST, PREVIOUS, manifest_problem, read_manifest
+from mocap.safe_files import write_text_atomic
 
 #: top-level keys that do not change a run's results (resume bookkeeping)
 IGNORED = ("skip_complete", "resume_on_change")
@@ -144,17 +145,29 @@ def drop_previous(out_dir: Path) -> None:
     shutil.rmtree(Path(out_dir) / PREVIOUS, ignore_errors=True)
 
 
-def restore_stored_config(out_dir: Path, overrides: list[str] | None = None) -> None:
+def restore_stored_config(out_dir: Path) -> None:
     """Write the config stored in ``metrics.json`` back to ``.hydra/config.yaml`` and the
     overrides its manifest keeps back to ``.hydra/overrides.yaml`` (Hydra overwrites both with
     the requested ones before the job starts; a run refused for a changed config must leave
     the directory describing the results it holds)."""
+    stored = json.loads((Path(out_dir) / "metrics.json").read_text()).get("config")
+    manifest = read_manifest(out_dir) or {}
+    describe_run(out_dir, stored, manifest.get("overrides"))
+
+
+def describe_run(out_dir: Path, config: Mapping | None, overrides: list[str] | None) -> None:
+    """``.hydra/config.yaml`` = ``config`` and ``.hydra/overrides.yaml`` = ``overrides`` (each
+    where given), when the folder has a ``.hydra/``: Hydra writes them as a job starts, before
+    the job can take the folder's lock, so a second process refused by the lock has overwritten
+    them with its own request; the holder writes its own back as it seals the run (and a run
+    refused for a changed config writes back the stored one). Hydra's ``hydra.yaml`` (the
+    launcher's settings) is left as it is."""
     import yaml
 
-    stored = json.loads((Path(out_dir) / "metrics.json").read_text()).get("config")
     hydra_dir = Path(out_dir) / ".hydra"
-    if isinstance(stored, Mapping) and hydra_dir.is_dir():
-        (hydra_dir / "config.yaml").write_text(yaml.safe_dump(stored, sort_keys=False))
-        manifest = read_manifest(out_dir) or {}
-        if "overrides" in manifest:
-            (hydra_dir / "overrides.yaml").write_text(yaml.safe_dump(list(manifest["overrides"])))
+    if not hydra_dir.is_dir():
+        return
+    if isinstance(config, Mapping):
+        write_text_atomic(hydra_dir / "config.yaml", yaml.safe_dump(dict(config), sort_keys=False))
+    if overrides is not None:
+        write_text_atomic(hydra_dir / "overrides.yaml", yaml.safe_dump(list(overrides)))

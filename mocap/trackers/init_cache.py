@@ -35,6 +35,7 @@ except ImportError:             # not POSIX: no waiting, at worst the work is do
 import numpy as np
 
 from mocap.cameras.calibration_io import rig_to_dict
+from mocap.safe_files import write_npz_atomic
 from mocap.trackers import initialization
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Initializer, initial_estimate_of
@@ -158,9 +159,8 @@ class Cached:
             state = self.start.random_state()
             if state is not None:
                 stored["rng_state"] = state
-            tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.npz")
-            np.savez(tmp, chi=est[0].chi, alpha=est[0].alpha, info=json.dumps(stored, default=float))
-            os.replace(tmp, path)
+            write_npz_atomic(path, dict(chi=est[0].chi, alpha=est[0].alpha,
+                                        info=json.dumps(stored, default=float)), compress=False)
             return est, {**info, "cached": False}
 
     def cache_key(self, frame: Frame) -> str | None:

@@ -191,3 +191,79 @@ def test_outline_band_on_the_masks_box_is_the_whole_image_computation():
             u8 = m.astype(np.uint8)
             want = cv2.dilate(u8 - cv2.erode(u8, k3), kt)
             np.testing.assert_array_equal(outline_band(m, k3, kt), want)
+            # a larger box than the mask's (the matcher's, from the projected vertices)
+            x, y, bw, bh = cv2.boundingRect(u8)
+            box = (max(x - 3, 0), max(y - 5, 0), bw + 9, bh + 7) if bw else (10, 10, 20, 20)
+            out = np.zeros((h, w), np.uint8)
+            assert outline_band(m, k3, kt, box, out) is out
+            np.testing.assert_array_equal(out, want)
+
+
+def test_compiled_matcher_equals_the_numpy_path(body, walk, monkeypatch):
+    """The compiled matcher (visibility and pairing in one pass over the views, observed grids
+    and rays once per frame) gives the numpy path's correspondences, bit for bit: at the true
+    pose, at poses off by a few degrees (long matches, rejected ones), with one view's
+    silhouette empty (no contour) and with a stride on both sides."""
+    from mocap.local import contour
+
+    pytest.importorskip("numba")
+    rig, seq = walk
+    sb = body.shaped(seq.gt.alpha)
+    rng = np.random.default_rng(7)
+    masks = seq.masks[1].copy()
+    masks[2] = False
+    for stride, observed_stride, m in ((1, 4, seq.masks[1]), (2, 3, masks)):
+        matcher = ContourMatcher(body, rig, stride=stride, observed_stride=observed_stride)
+        for k in range(3):
+            chi = seq.gt.chi[1].astype(np.float64).copy()
+            chi[6:] += rng.normal(0, 0.08 * k, body.num_dofs - 6)
+            verts = sb.pose(chi).vertices[0].astype(np.float64)
+            got, info = matcher(verts, observed_contours(m))
+            monkeypatch.setattr(contour, "HAVE_NUMBA", False)
+            want, want_info = matcher(verts, observed_contours(m))
+            monkeypatch.undo()
+            assert info == want_info and len(got) > 500
+            for f in ("points", "limbs", "d", "m", "weights"):
+                np.testing.assert_array_equal(getattr(got, f), getattr(want, f))
+    assert want_info["views_without_contour"] == [rig.names[2]]
+
+
+def test_observed_lines_are_the_rays_of_the_contour_pixels(body, walk):
+    """The Plücker lines back-projected once per frame for all views are each view's
+    pixel_rays + plucker_from_rays of its contour pixels (views one after the other)."""
+    from mocap.cameras import pixel_rays, plucker_from_rays
+
+    rig, seq = walk
+    obs = observed_contours(seq.masks[1])
+    matcher = ContourMatcher(body, rig)
+    d, m = matcher.observed_lines(obs)
+    first = 0
+    for c, cam in enumerate(rig):
+        n = len(obs.points[c])
+        wd, wm = plucker_from_rays(*pixel_rays(cam, obs.points[c]))
+        np.testing.assert_allclose(d[first:first + n], wd, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(m[first:first + n], wm, rtol=0, atol=1e-12)
+        first += n
+    assert first == len(d) and matcher.observed_lines(obs)[0] is d       # once per frame
+
+
+@pytest.mark.parametrize("distorted", [False, True])
+def test_pixels_in_both_rigs_equal_pixels_from_camera(body, walk, distorted):
+    """The matcher's one-pass projection into the visibility rig and the rig gives
+    pixels_from_camera's floats (with lens distortion and skew too) and its depth."""
+    from mocap.cameras import Rig, camera_coordinates, pixels_from_camera
+
+    pytest.importorskip("numba")
+    rig, seq = walk
+    if distorted:
+        rng = np.random.default_rng(2)
+        skew = np.array([[0, 0.7, 0], [0, 0, 0], [0, 0, 0]])
+        rig = Rig(tuple(cam.replace(dist=rng.normal(0, 0.05, 5), K=cam.K + skew) for cam in rig))
+    matcher = ContourMatcher(body, rig)
+    verts = body.shaped(seq.gt.alpha).pose(seq.gt.chi[1]).vertices[0].astype(np.float64)
+    xyz = camera_coordinates(rig, verts)
+    small, full, depth = matcher.pixels(xyz)
+    want_small, want_depth = pixels_from_camera(matcher.small, xyz)
+    np.testing.assert_array_equal(small, want_small)
+    np.testing.assert_array_equal(full, pixels_from_camera(rig, xyz)[0])
+    np.testing.assert_array_equal(depth, want_depth)

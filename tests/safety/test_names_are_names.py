@@ -145,3 +145,37 @@ def test_writing_a_sequence_with_a_path_like_camera_name_writes_nothing(tmp_path
     with pytest.raises(UnsafeNameError, match="camera name '../../escaped'"):
         write_sequence(bad, tmp_path / "a" / "seq")
     assert tree(tmp_path) == before
+
+
+def test_writers_never_follow_a_link_at_their_old_fixed_temporary_names(tmp_path):
+    """The body-model file, the pose prior, gt.npz, an exported motion and the calibration folder
+    used to be written through fixed names (``X.tmp.npz``, ``.gt.tmp.npz``, ``out.partial``): a
+    link planted there (by whoever can write the folder) would have been written through. Each
+    writer now goes through :func:`mocap.safe_files.temporary_beside` / ``mkdtemp``: the links'
+    targets are untouched and what was written reads back equal."""
+    import numpy as np
+
+    from mocap.body.model_file import load_body_model_data, save_body_model_data
+    from mocap.calibration.pipeline import _write
+    from mocap.energy.prior import ParzenPrior
+    from mocap.safe_files import write_npz_atomic
+
+    target = tmp_path / "elsewhere.txt"
+    target.write_text("keep")
+    planted = ["body.npz.tmp.npz", "prior.npz.tmp.npz", ".gt.tmp.npz", "calib.partial", "m.npz.tmp"]
+    for name in planted:
+        (tmp_path / name).symlink_to(target)
+    data = load_body_model_data()
+    save_body_model_data(data, tmp_path / "body.npz")
+    assert np.array_equal(load_body_model_data(tmp_path / "body.npz").faces, data.faces)
+    prior = ParzenPrior(samples=np.ones((3, 2)), dof_names=("a", "b"), sigma=0.5)
+    prior.save(tmp_path / "prior.npz")
+    assert np.array_equal(ParzenPrior.load(tmp_path / "prior.npz").samples, prior.samples)
+    write_npz_atomic(tmp_path / "m.npz", {"x": np.arange(3)})
+    assert np.load(tmp_path / "m.npz")["x"].tolist() == [0, 1, 2]
+    rig = ring_rig(2, 3.0, 1.5, 64, 48, fov_deg=40.0)
+    _write(tmp_path / "calib", rig, {"ok": 1}, [], overwrite=False)
+    assert json.loads((tmp_path / "calib" / "report.json").read_text()) == {"ok": 1}
+    assert target.read_text() == "keep"
+    assert all((tmp_path / n).is_symlink() for n in planted)
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".") and not p.is_symlink()) == []

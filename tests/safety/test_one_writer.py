@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from mocap.run_folder.lock import LOCK, RunFolderBusy, holds, run_lock
 from mocap.run_folder.manifest import manifest_problem, write_manifest
@@ -131,3 +132,9 @@ def test_two_track_processes_on_one_folder_the_second_refuses_the_first_complete
     manifest = json.loads((run / "manifest.json").read_text())
     assert "seed=0" in manifest["overrides"] and "seed=1" not in manifest["overrides"]
     assert not (run / LOCK).exists()                             # removed by its holder
+    # Hydra wrote the refused process's request into .hydra/ before it met the lock: the holder
+    # wrote its own back as it sealed the run, so the folder describes the results it holds
+    hydra_config = yaml.safe_load((run / ".hydra" / "config.yaml").read_text())
+    assert hydra_config["seed"] == 0 and hydra_config == metrics["config"]
+    hydra_overrides = yaml.safe_load((run / ".hydra" / "overrides.yaml").read_text())
+    assert "seed=0" in hydra_overrides and "seed=1" not in hydra_overrides
