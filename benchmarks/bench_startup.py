@@ -7,10 +7,12 @@
 Commands: ``floor`` (``python -c pass``: the interpreter alone), ``help`` (``mocap --help``),
 ``bad`` (``mocap export`` without its arguments: an argument error), ``trackhelp`` / ``trackbad``
 (``mocap track --help`` / ``mocap track bogus=1``: a Hydra command's help and override error,
-which compose its config), ``calhelp`` (``mocap calibrate --help``), ``export`` (``mocap export
-RUN --format bvh`` of a 60-frame run; ``--run`` names one, else one is tracked first with
-``tracker=marker_apf data=walk_markers_small data.frames=60``) and ``track`` (``mocap track
-tracker=hybrid data=walk_small frames=2``, recording on, into a temporary folder).
+which compose its config), ``calhelp`` (``mocap calibrate --help``), ``help:CMD`` /
+``bad:CMD`` (``mocap CMD --help`` / ``mocap CMD --no-such-flag``, any command; ``help:all`` /
+``bad:all``: every command), ``export`` (``mocap export RUN --format bvh`` of a 60-frame run;
+``--run`` names one, else one is tracked first with ``tracker=marker_apf data=walk_markers_small
+data.frames=60``) and ``track`` (``mocap track tracker=hybrid data=walk_small frames=2``,
+recording on, into a temporary folder).
 
 Modes: ``cached`` (the usual: bytecode cached beside the sources, written by an untimed warm-up
 run), ``dontwrite`` (``PYTHONDONTWRITEBYTECODE=1`` with the bytecode that
@@ -58,8 +60,12 @@ def make_run(folder: Path) -> Path:
 
 def commands(run: Path, tmp: Path, i: int) -> dict[str, tuple[list[str], int]]:
     """name -> (argv, the exit status it must end with); ``i`` numbers the track's run folder."""
+    from mocap_cli.main import COMMANDS
+
     m = mocap_argv()
     return {
+        **{f"help:{c}": ([*m, c, "--help"], 0) for c in COMMANDS},
+        **{f"bad:{c}": ([*m, c, "--no-such-flag"], 2) for c in COMMANDS},
         "floor": ([sys.executable, "-c", "pass"], 0),
         "help": ([*m, "--help"], 0),
         "bad": ([*m, "export"], 2),
@@ -112,11 +118,17 @@ def main() -> None:
         empty.mkdir()
         run = args.run or make_run(tmp / "run60")
         names = args.commands.split(",")
+        for every in ("help:all", "bad:all"):
+            if every in names:
+                from mocap_cli.main import COMMANDS
+
+                at = names.index(every)
+                names[at:at + 1] = [f"{every[:-3]}{c}" for c in COMMANDS]
         calls = iter(range(10**6))
         for name in names:                           # warm-up: bytecode and numba caches filled
             argv, status = commands(run, tmp, next(calls))[name]
             timed(argv, environment("cached", empty), status)
-        print(f"{'command':<9} {'mode':<10} {'median s':>9} {'min s':>7} {'cpu s':>6}  target   load")
+        print(f"{'command':<22} {'mode':<10} {'median s':>9} {'min s':>7} {'cpu s':>6}  target   load")
         for name in names:
             for mode in args.modes.split(","):
                 load = os.getloadavg()[0]
@@ -130,7 +142,7 @@ def main() -> None:
                 if isinstance(target, dict):
                     target = target.get(mode)
                 med, cpu = statistics.median(times), statistics.median(cpus)
-                print(f"{name:<9} {mode:<10} {med:9.2f} {min(times):7.2f} {cpu:6.2f}  "
+                print(f"{name:<22} {mode:<10} {med:9.2f} {min(times):7.2f} {cpu:6.2f}  "
                       f"{'' if target is None else f'<= {target}':<7} {load:5.1f}", flush=True)
                 if args.out:
                     with args.out.open("a") as f:

@@ -1,7 +1,10 @@
-"""Shared fixtures: the shipped body model in both DOF configurations."""
+"""Shared fixtures: the shipped body model in both DOF configurations. The order the suite runs
+its files in: the longest first (:data:`DURATIONS`)."""
 
 from __future__ import annotations
 
+import json
+from collections import defaultdict
 from pathlib import Path
 
 import pytest
@@ -19,6 +22,47 @@ def pytest_configure(config):
     from mocap_cli import register_resolvers
 
     register_resolvers()
+
+
+#: seconds each test file took in a past run of the whole suite (``bash scripts/test.sh
+#: --store-durations`` rewrites it). The files run longest first: under pytest-xdist each file runs
+#: on one worker, and a long file dealt last (xdist's own order is by number of tests, which puts
+#: the one-test files that take minutes at the end) keeps one worker busy while the others idle.
+#: Files not listed run after those listed, in collection order. Only the order depends on it.
+DURATIONS = Path(__file__).with_name("file_durations.json")
+_SECONDS: dict[str, float] = defaultdict(float)
+
+
+def pytest_addoption(parser):
+    parser.addoption("--store-durations", action="store_true",
+                     help=f"write each test file's seconds (setup + call + teardown) this run to {DURATIONS}")
+
+
+def pytest_collection_modifyitems(config, items):
+    seconds = json.loads(DURATIONS.read_text()) if DURATIONS.is_file() else {}
+    first: dict[str, int] = {}
+    for i, item in enumerate(items):
+        first.setdefault(item.nodeid.split("::")[0], i)
+
+    def key(item):
+        file = item.nodeid.split("::")[0]
+        return -seconds.get(file, 0.0), first[file]
+
+    items.sort(key=key)                      # stable: a file's tests keep their order
+
+
+def pytest_runtest_logreport(report):
+    """Each test's phases summed per file (under xdist the controller receives every worker's)."""
+    _SECONDS[report.nodeid.split("::")[0]] += report.duration
+
+
+def pytest_sessionfinish(session):
+    config = session.config
+    if config.getoption("store_durations", False) and not hasattr(config, "workerinput") and _SECONDS:
+        seconds = json.loads(DURATIONS.read_text()) if DURATIONS.is_file() else {}
+        seconds.update({f: round(s, 1) for f, s in _SECONDS.items()})
+        longest_first = dict(sorted(seconds.items(), key=lambda kv: -kv[1]))
+        DURATIONS.write_text(json.dumps(longest_first, indent=0) + "\n")
 
 
 def body_config(name: str) -> dict:

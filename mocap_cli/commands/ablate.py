@@ -33,6 +33,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="keep runs without a valid manifest.json (written before manifests) in the table, "
                         "each listed as UNVERIFIED")
     args = p.parse_args(argv)
+    if not args.sweep_dir.is_dir():                 # before the numeric stack is imported
+        raise FileNotFoundError(f"sweep directory not found: {args.sweep_dir}")
     from mocap.run_folder.sweep import collect, markdown, table_rows, write_csv
     from mocap.run_folder.sweep_plots import plot
 

@@ -17,7 +17,6 @@ import argparse
 from pathlib import Path
 
 from mocap.body.skeletons import LAYOUTS
-from mocap.data.openpose import convert_pose2sim
 from mocap_cli.errors import ArgumentParser
 
 
@@ -57,6 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
     args = p.parse_args(argv)
     from mocap.checks import check_fps
+    from mocap.data.openpose import convert_pose2sim
 
     if args.fps is not None:
         check_fps(args.fps, "--fps")                # before anything is read or written

@@ -14,7 +14,6 @@ import argparse
 from pathlib import Path
 
 from mocap.body.skeletons import SKELETONS
-from mocap.data.named_joints import add_ground_truth, read_named_joints, sequence_info
 from mocap_cli.errors import ArgumentParser
 
 
@@ -29,6 +28,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--scale", type=float, default=1.0, help="to metres (0.001 for mm)")
     p.add_argument("--overwrite", action="store_true")
     args = p.parse_args(argv)
+    from mocap.data.named_joints import add_ground_truth, read_named_joints, sequence_info
+
     sequence_info(args.sequence_dir)        # a folder that is not a sequence folder: refused first
     names, joints, valid = read_named_joints(args.joints_dir, args.scale)
     out = add_ground_truth(args.sequence_dir, names, joints, valid,

@@ -14,8 +14,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mocap.clips.bvh import UNITS
 from mocap_cli.errors import ArgumentParser
+
+#: the length units of :data:`mocap.clips.bvh.UNITS`, written out here so that reading the arguments
+#: imports no numeric stack (tests/cli/test_startup.py checks that they are the reader's)
+UNIT_NAMES = ("cm", "inch", "m", "mm")
 
 
 def frame_slice(text: str) -> slice:
@@ -37,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--body", default="paper22", help="body preset (paper22, full, ...)")
     p.add_argument("--map", dest="name_map", default=None,
                    help="name map: a name in mocap/clips/maps or a YAML file (default: detected)")
-    p.add_argument("--unit", default=None, choices=sorted(UNITS), help="the file's length unit")
+    p.add_argument("--unit", default=None, choices=UNIT_NAMES, help="the file's length unit")
     p.add_argument("--up", default=None, choices=["y", "z"], help="the file's up axis")
     p.add_argument("--frames", type=frame_slice, default=None, help="start:stop[:step] of the file")
     p.add_argument("--fps", type=float, default=None, help="resample to this rate first")

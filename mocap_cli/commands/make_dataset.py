@@ -13,15 +13,18 @@ from __future__ import annotations
 import time
 
 from omegaconf import DictConfig, OmegaConf
-from tqdm import tqdm
 
-from mocap.data.generate import make_synthetic
-from mocap.data.sequence_io import write_sequence
-from mocap.viz.contact_sheet import contact_sheet, save_png
 from mocap_cli.hydra_edge import build, run_command
 
 
 def task(cfg: DictConfig) -> None:
+    # imported here: --help and argument errors import no numeric stack
+    from tqdm import tqdm
+
+    from mocap.data.generate import make_synthetic
+    from mocap.data.sequence_io import write_sequence
+    from mocap.viz.contact_sheet import contact_sheet, save_png
+
     body = build(cfg.body)
     rig = build(cfg.cameras)
     t0 = time.perf_counter()

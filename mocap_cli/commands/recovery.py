@@ -13,15 +13,18 @@ under twice the level before (null: not recovered): :func:`mocap.eval.recovery.r
 
 from __future__ import annotations
 
-import numpy as np
 from omegaconf import DictConfig
 
-from mocap.eval.recovery import recovery_figures
-from mocap.trackers.failures import FailureInjection, FrameSkip, Perturbation
 from mocap_cli.hydra_edge import run_command, track_run
 
 
 def task(cfg: DictConfig) -> None:
+    # imported here: --help and argument errors import no numeric stack
+    import numpy as np
+
+    from mocap.eval.recovery import recovery_figures
+    from mocap.trackers.failures import FailureInjection, FrameSkip, Perturbation
+
     r = cfg.recovery
     skip = FrameSkip(int(r.skip_at), int(r.skip)) if r.skip else None
     perturbation = None if r.perturb_at is None else Perturbation(

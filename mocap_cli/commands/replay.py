@@ -74,14 +74,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("target", type=Path, help="run directory or .rrd file")
     p.add_argument("--summary", action="store_true", help="print the summary, never open a viewer")
     args = p.parse_args(argv)
-    from mocap.recording.reader import read_recording, summary_text
-
     target = args.target
     if (target.is_file() and target.suffix == ".npz") or (
             target.is_dir() and (target / "motion.npz").is_file()
             and not any((target / n).is_file() for n in ("recording.rrd", "recording.failed.rrd"))):
         return replay_motion(target)
     rrd = find_recording(args.target)
+    from mocap.recording.reader import read_recording, summary_text  # (the numeric stack: once found)
+
     problem = None
     if args.target.is_dir():
         from mocap.run_folder.manifest import manifest_problem

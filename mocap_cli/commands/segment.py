@@ -17,13 +17,15 @@ from dataclasses import replace
 
 from omegaconf import DictConfig, OmegaConf
 
-from mocap.data.sequence_io import write_sequence
-from mocap.video.segmentation import segment_sequence
-from mocap.video.sequence import load_background_clip
 from mocap_cli.hydra_edge import build, run_command
 
 
 def task(cfg: DictConfig) -> None:
+    # imported here: --help and argument errors import no numeric stack
+    from mocap.data.sequence_io import write_sequence
+    from mocap.video.segmentation import segment_sequence
+    from mocap.video.sequence import load_background_clip
+
     seq = build(cfg.data, body=None)
     clip = load_background_clip(cfg.background_clip, seq) if cfg.background_clip else None
     result = segment_sequence(seq, background_clip=clip, **OmegaConf.to_container(cfg.segmentation))

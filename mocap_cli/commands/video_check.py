@@ -13,17 +13,20 @@ the projected body per view); the check's figures are added to metrics.json.
 
 from __future__ import annotations
 
-import numpy as np
 from omegaconf import DictConfig
 
-from mocap.body.catalogue import make_landmark_set
-from mocap.eval.keypoint_metrics import triangulate_detections
-from mocap.eval.video_metrics import lost_frames, offset_reprojection, silhouette_iou
 from mocap_cli.hydra_edge import run_command, track_run
 
 
 def check_metrics(check: dict, metrics: dict, result, body, seq) -> dict:
     """The check's figures for a finished run (``check``: min_confidence, lost_px, lost_iou)."""
+    # imported here: --help and argument errors import no numeric stack
+    import numpy as np
+
+    from mocap.body.catalogue import make_landmark_set
+    from mocap.eval.keypoint_metrics import triangulate_detections
+    from mocap.eval.video_metrics import lost_frames, offset_reprojection, silhouette_iou
+
     if seq.detections is None:
         raise ValueError("the check needs keypoint detections (data.keypoints)")
     chis = np.stack([e.chi for e in result.estimates])

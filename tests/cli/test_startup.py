@@ -1,9 +1,9 @@
-"""Start-up (issue 38): ``mocap --help``, an unknown command and the argument errors and help of the
-commands that take flags import none of the numeric stack (numpy, OpenCV, numba, scipy) nor Hydra,
-Rerun or matplotlib: a command imports what it needs once its arguments are read. ``mocap track``'s
-help and override errors compose its config (Hydra), the tracker presets' settings included, and
-still import none of the numeric stack. Checked in a fresh interpreter (this one has them all
-loaded)."""
+"""Start-up (issue 38): ``mocap --help``, an unknown command and the argument errors and help of
+every command that takes flags import none of the numeric stack (numpy, OpenCV, numba, scipy) nor
+Hydra, Rerun or matplotlib: a command imports what it needs once its arguments are read. The Hydra
+commands' (``mocap track``, ``recovery``, ...) help and override errors compose their configs
+(Hydra), the tracker presets' settings included, and still import none of the numeric stack.
+Checked in a fresh interpreter (this one has them all loaded)."""
 
 import json
 import subprocess
@@ -14,9 +14,11 @@ import pytest
 HEAVY = ("numpy", "cv2", "numba", "scipy", "hydra", "omegaconf", "rerun", "matplotlib")
 NUMERIC = ("numpy", "cv2", "numba", "scipy")
 
-#: the commands that take flags (the Hydra commands compose their configs, settings classes included)
+#: the commands that take flags
 FLAG_COMMANDS = ["replay", "export", "ablate", "detect", "rescore", "train-prior", "build-body-model",
-                 "show-body", "calibrate"]
+                 "show-body", "calibrate", "capture", "convert", "gt-from-joints", "import-motion"]
+#: the commands that take Hydra overrides (they compose their configs, settings classes included)
+HYDRA_COMMANDS = ["track", "recovery", "make-dataset", "segment", "video-check"]
 
 
 def imported_by(argv: list[str]) -> tuple[int, list[str]]:
@@ -44,10 +46,35 @@ def test_help_and_argument_errors_import_no_numeric_stack(argv, status):
     assert imported_by(argv) == (status, [])
 
 
+def test_every_command_is_checked():
+    from mocap_cli.main import COMMANDS
+
+    assert sorted(FLAG_COMMANDS + HYDRA_COMMANDS) == sorted(COMMANDS)
+
+
 @pytest.mark.parametrize("command", FLAG_COMMANDS)
 def test_a_flag_commands_help_and_bad_flag_import_no_numeric_stack(command):
     assert imported_by([command, "--help"]) == (0, [])
     assert imported_by([command, "--no-such-flag"]) == (2, [])
+
+
+def test_import_motions_unit_choices_are_the_bvh_readers_units():
+    from mocap.clips.bvh import UNITS
+    from mocap_cli.commands.import_motion import UNIT_NAMES
+
+    assert list(UNIT_NAMES) == sorted(UNITS)
+
+
+@pytest.mark.parametrize("command", ["replay", "ablate"])
+def test_a_run_or_sweep_folder_that_does_not_exist_imports_no_numeric_stack(command):
+    assert imported_by([command, "/no/such/folder"]) == (2, [])
+
+
+@pytest.mark.parametrize("command", sorted(set(HYDRA_COMMANDS) - {"track"}))   # track: below
+def test_a_hydra_commands_help_and_unknown_key_import_no_numeric_stack(command):
+    for argv, status in (([command, "--help"], 0), ([command, "bogus=1"], 2)):
+        rc, loaded = imported_by(argv)
+        assert (rc, [m for m in loaded if m in NUMERIC]) == (status, []), argv
 
 
 def imported_by_code(code: str) -> list[str]:
