@@ -210,7 +210,6 @@ if HAVE_NUMBA:
             xs = np.empty(V, X.dtype)
             ys = np.empty(V, X.dtype)
             vs = np.empty(V, np.bool_)
-            tmp = np.empty((bh_max + 4, bw_max + 4), np.int32)
             win = np.empty((bh_max + 4, bw_max + 4), np.int32)
             # view-major order: a thread runs the particles of one view in a row, so that
             # view's distance transform (250 KB at 256 px) stays in cache
@@ -227,10 +226,22 @@ if HAVE_NUMBA:
                 x0, y0, x1b, y1b = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
                 bh = y1b - y0
                 bw = x1b - x0
-                tmp[:bh + 4, :bw + 4] = _INIT
                 t1 = 0.0
                 model_area = 0
                 seeds = 0
+                r_end = 0
+                # term 2's window (box coordinates): the observed pixels and the model's
+                # bounding box in the box. A shortest chamfer path steps monotonically from a
+                # seed to a pixel, so it stays in their bounding box: read at the observed
+                # pixels the window's transform is the whole box's (tested), at 0.5-0.7x the
+                # area. Its corner and columns are known before the rows are summed, its last
+                # row after: the rows are seeded straight into it (padding ring included: far,
+                # no seed lies outside the window), so that the passes run on whole rows from
+                # column 2 (they vectorise so)
+                i0 = min(obs_box[c, 0], max(r_min - y0, 0))
+                j0 = min(obs_box[c, 2], max(c_min - x0, 0))
+                j1 = max(obs_box[c, 3], min(c_max - x0, bw))
+                ww = j1 - j0 + 4
                 if r_max >= 0:
                     for j in range(c_min, c_max):
                         run[j] = 0
@@ -253,7 +264,10 @@ if HAVE_NUMBA:
                         t1 += s1
                         model_area += k1
                         if y0 <= r < y1b:
-                            seeds += _seed_row(tmp, r - y0 + 2, run, bx0, bx1, x0 - 2)
+                            wi = r - y0 - i0 + 2
+                            for j in range(ww):
+                                win[wi, j] = _INIT
+                            seeds += _seed_row(win, wi, run, bx0, bx1, x0 + j0 - 2)
                         r += 1
                     r_end = r
                     # _add_row cleared the rows it read; clear a crossing on row ``height``
@@ -264,19 +278,14 @@ if HAVE_NUMBA:
                 if seeds == 0:
                     e2 = penalty
                 else:
-                    # the transform's window: the observed pixels and the model's bounding box
-                    # in the box. A shortest chamfer path steps monotonically from a seed to a
-                    # pixel, so it stays in their bounding box: read at the observed pixels the
-                    # window's transform is the whole box's (tested), at 0.5-0.7x the area
-                    i0 = min(obs_box[c, 0], max(r_min - y0, 0))
                     i1 = max(obs_box[c, 1], min(r_end - y0, bh))
-                    j0 = min(obs_box[c, 2], max(c_min - x0, 0))
-                    j1 = max(obs_box[c, 3], min(c_max - x0, bw))
-                    # copied (padding ring included: far, no seed lies outside the window) so
-                    # that the passes run on whole rows from column 2 (they vectorise so)
-                    for i in range(i1 - i0 + 4):
-                        for j in range(j1 - j0 + 4):
-                            win[i, j] = tmp[i0 + i, j0 + j]
+                    # the window's rows the scan did not seed: far
+                    for i in range(max(r_min - y0, 0) - i0 + 2):
+                        for j in range(ww):
+                            win[i, j] = _INIT
+                    for i in range(min(r_end - y0, bh) - i0 + 2, i1 - i0 + 4):
+                        for j in range(ww):
+                            win[i, j] = _INIT
                     s0, s1 = obs_start[c], obs_start[c + 1]
                     e2 = _chamfer_term2(win, i1 - i0, j1 - j0, obs_r[s0:s1], obs_c[s0:s1],
                                         i0, j0) / area[c]
