@@ -4,7 +4,7 @@ against a stored baseline (not a timed test: run it by hand on a quiet machine).
     .venv/bin/python benchmarks/bench_speed.py [--frames 4] [--threads 1]
         [--trackers local,local_sift,apf_prior,apf,hybrid] [--backend auto|numba|numpy]
         [--legacy-local] [--compare] [--baseline benchmarks/baseline_speed.json]
-        [--save-baseline] [--frame-times FILE]
+        [--save-baseline] [--frame-times FILE] [--label NAME]
 
 Fixed settings: the MPI08-like rig (8 views, 1004 x 1004), 256 px internal silhouettes, a
 synthetic walk (seed 0, textured images so that ``local_sift`` has SIFT features; the other
@@ -21,13 +21,16 @@ every later run prints ``now / baseline`` next to its own times.
 
 Comparing two commits on a noisy machine: run this script from two checkouts in turn, several
 rounds, each with ``--frame-times FILE`` (one JSON line per run: commit, load, every frame's
-seconds per tracker; the old commit needs this option too), then compare medians and the
-fastest frames per commit::
+seconds and CPU seconds per tracker), then compare medians and the fastest frames per commit.
+On a loaded machine compare the CPU seconds too (``time.process_time``: the time the process
+ran, not the time it waited for a core). This script times the ``mocap`` it imports, so an
+old checkout (whose own script may lack options) is timed by this one with ``PYTHONPATH``
+set to the old checkout and ``--label`` naming it::
 
     git worktree add ../old <commit> && ln -s $PWD/.venv ../old/.venv
-    for r in 1 2 3 4; do for d in ../old .; do (cd $d && .venv/bin/python \
-        benchmarks/bench_speed.py --frames 7 --trackers local,apf_prior,apf \
-        --frame-times /tmp/ab.jsonl); done; done
+    new=$PWD; for r in 1 2 3 4; do for d in $new/../old $new; do PYTHONPATH=$d \
+        .venv/bin/python benchmarks/bench_speed.py --frames 7 --trackers local,apf_prior,apf \
+        --label $d --frame-times /tmp/ab.jsonl; done; done
 """
 
 from __future__ import annotations
@@ -71,24 +74,25 @@ def without_images(frame: Frame) -> Frame:
     return Frame(index=frame.index, masks=frame.masks, images=None, detections=frame.detections)
 
 
-def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, float, list]:
-    """Mean and median seconds per tracked frame, mean energy evaluations, and every frame's
-    seconds."""
+def time_tracker(name: str, body, rig, seq, frames: int) -> tuple[float, float, float, list, list]:
+    """Mean and median seconds per tracked frame, mean energy evaluations, every frame's
+    seconds and every frame's CPU seconds (this process's, ``time.process_time``)."""
     cfg_name, overrides, images = TRACKERS[name]
     cfg = compose("track", [f"tracker={cfg_name}", *overrides])
     tracker = build(cfg.tracker, body=body, rig=rig, rng=np.random.default_rng(0))
     tracker.initialize(noisy_initial_pose(body, seq.gt.chi[0], np.random.default_rng(0), 3.0, 0.02),
                        seq.gt.alpha)
-    times, evals = [], []
+    times, cpu, evals = [], [], []
     for f in range(1, frames):
         frame = frame_of(seq, f)
         if not images:
             frame = without_images(frame)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         est = tracker.step(frame)
         times.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
         evals.append(est.diagnostics.get("energy_evaluations", 0))
-    return float(np.mean(times)), float(np.median(times)), float(np.mean(evals)), times
+    return float(np.mean(times)), float(np.median(times)), float(np.mean(evals)), times, cpu
 
 
 def _commit() -> str:
@@ -120,6 +124,8 @@ def main() -> None:
     p.add_argument("--save-baseline", action="store_true", help="store this run's times as baseline")
     p.add_argument("--frame-times", type=Path, default=None,
                    help="append every frame's seconds to this JSON-lines file (one line per run)")
+    p.add_argument("--label", default=None,
+                   help="name of the code timed in --frame-times lines (default: this checkout's commit)")
     args = p.parse_args()
 
     base = compose("track")
@@ -134,20 +140,22 @@ def main() -> None:
           f"{args.frames - 1} tracked frames; threads {args.threads or 'default'}; "
           f"{os.cpu_count()} cores, load {load:.1f}")
     paths = ["old", "new"] if args.compare else (["old"] if args.legacy else ["new"])
-    header = f"{'tracker':11s} {'path':4s} {'mean s':>8s} {'median s':>9s} {'evals':>6s}"
+    header = f"{'tracker':11s} {'path':4s} {'mean s':>8s} {'median s':>9s} {'cpu s':>7s} {'evals':>6s}"
     print(header + (f" {'old/new':>8s}" if args.compare else "")
           + (f" {'/baseline':>9s}" if baseline else ""))
     results: dict[str, float] = {}
     frame_times: dict[str, list] = {}
+    frame_cpu: dict[str, list] = {}
     for name in names:
         row = {}
         for path in paths:
             set_path(path == "old", args.backend)
             with thread_budget(args.threads or None):
-                mean, median, evals, times = time_tracker(name, body, rig, seq, args.frames)
+                mean, median, evals, times, cpu = time_tracker(name, body, rig, seq, args.frames)
             frame_times.setdefault(f"{name} {path}", []).append(times)
+            frame_cpu.setdefault(f"{name} {path}", []).append(cpu)
             row[path] = median
-            line = f"{name:11s} {path:4s} {mean:8.3f} {median:9.3f} {evals:6.0f}"
+            line = f"{name:11s} {path:4s} {mean:8.3f} {median:9.3f} {np.median(cpu):7.3f} {evals:6.0f}"
             if args.compare and path == "new":
                 line += f" {row['old'] / median:8.2f}"
             elif args.compare:
@@ -159,7 +167,8 @@ def main() -> None:
     set_path(False, "auto")
     if args.frame_times:
         with args.frame_times.open("a") as f:
-            f.write(json.dumps({"commit": _commit(), "load": load, "times": frame_times}) + "\n")
+            f.write(json.dumps({"commit": args.label or _commit(), "load": load, "times": frame_times,
+                                "cpu": frame_cpu}) + "\n")
     if args.save_baseline:
         args.baseline.write_text(json.dumps({
             "seconds_per_frame": results, "path": paths[-1], "threads": args.threads,
