@@ -98,33 +98,33 @@ if HAVE_NUMBA:
             total += np.float32(tmp[obs_r[k] + 2 - i0, obs_c[k] + 2 - j0]) * np.float32(1.0 / 65536.0)
         return total
 
-    @njit(cache=True, fastmath={"reassoc"}, inline="always")
-    def _add_row(acc, r, run, dt, c, j0, j1):
-        """Next row r of the scan: run[j] += acc[r, j] (acc[r] cleared for the next
-        particle-view); returns the sum of dt[c, r] under the covered pixels (run != 0) and
-        their count (arrays and indices passed, not row views: building a view per row
-        cost more than the row). The float sum may be reassociated: the energy may then differ
-        from the in-order sum by float rounding, like the numpy path's BLAS dot (in the
-        measured build it did not: the energies were bit-identical to the in-order loop)."""
+    @njit(cache=True, fastmath={"reassoc"})
+    def _sum_row(run, dt, c, r, j0, j1):
+        """The sum of dt[c, r, j0:j1] under the covered pixels (run != 0) and their count.
+
+        Not inlined at numba's IR level (``inline="always"``): there the caller's flags
+        replace this function's, the sum lost its ``reassoc`` and stayed a serial loop; as
+        a call LLVM inlines it with the flag and vectorises the sum (1.3x faster rows). The
+        reassociated sum is the in-order one bit for bit: the terms are float32 distances,
+        0 or >= 1 (exact Euclidean transforms of pixel centres: multiples of 2**-23), so
+        every partial sum below 2**30 is exact in float64."""
         total = 0.0
         count = 0
         for j in range(j0, j1):
-            v = run[j] + acc[r, j]
-            run[j] = v
-            acc[r, j] = 0
-            total += np.float64(dt[c, r, j]) if v != 0 else 0.0
-            count += v != 0
+            inside = run[j] != 0
+            total += np.float64(dt[c, r, j]) if inside else 0.0
+            count += inside
         return total, count
 
-    @njit(cache=True, fastmath={"reassoc"}, inline="always")
-    def _sum_row(run, dt, c, r, j0, j1):
-        """_add_row below the last crossing (run unchanged)."""
-        total = 0.0
-        count = 0
+    @njit(cache=True, inline="always")
+    def _add_row(acc, r, run, dt, c, j0, j1):
+        """Next row r of the scan: run[j] += acc[r, j] (acc[r] cleared for the next
+        particle-view); returns :func:`_sum_row` of the new run (arrays and indices passed,
+        not row views: building a view per row cost more than the row)."""
         for j in range(j0, j1):
-            total += np.float64(dt[c, r, j]) if run[j] != 0 else 0.0
-            count += run[j] != 0
-        return total, count
+            run[j] += acc[r, j]
+            acc[r, j] = 0
+        return _sum_row(run, dt, c, r, j0, j1)
 
     @njit(cache=True, inline="always")
     def _seed_row(tmp, i, run, j0, j1, shift):
