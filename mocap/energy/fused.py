@@ -116,26 +116,27 @@ if HAVE_NUMBA:
             count += inside
         return total, count
 
+    @njit(cache=True, fastmath={"reassoc"})
+    def _sum_seed_row(run, dt, c, r, j0, j1, win, i, shift):
+        """:func:`_sum_row` that also writes the seeds of the model distance transform:
+        win[i, j - shift] = 0 where the model covers column j, far otherwise."""
+        total = 0.0
+        count = 0
+        for j in range(j0, j1):
+            inside = run[j] != 0
+            total += np.float64(dt[c, r, j]) if inside else 0.0
+            count += inside
+            win[i, j - shift] = 0 if inside else _INIT
+        return total, count
+
     @njit(cache=True, inline="always")
-    def _add_row(acc, r, run, dt, c, j0, j1):
-        """Next row r of the scan: run[j] += acc[r, j] (acc[r] cleared for the next
-        particle-view); returns :func:`_sum_row` of the new run (arrays and indices passed,
-        not row views: building a view per row cost more than the row)."""
+    def _add_row(acc, r, run, j0, j1):
+        """Next row r of the scan: run[j] += acc[r, j], acc[r] cleared for the next
+        particle-view (arrays and indices passed, not row views: building a view per row
+        cost more than the row)."""
         for j in range(j0, j1):
             run[j] += acc[r, j]
             acc[r, j] = 0
-        return _sum_row(run, dt, c, r, j0, j1)
-
-    @njit(cache=True, inline="always")
-    def _seed_row(tmp, i, run, j0, j1, shift):
-        """Seeds of the model distance transform: tmp[i, j - shift] = 0 where the model
-        covers column j, far otherwise; returns how many."""
-        seeds = 0
-        for j in range(j0, j1):
-            inside = run[j] != 0
-            tmp[i, j - shift] = 0 if inside else _INIT
-            seeds += inside
-        return seeds
 
     @njit(cache=True, inline="always")
     def project_view(X, cam, dist, has_dist, has_skew, xs, ys, vs):
@@ -245,12 +246,16 @@ if HAVE_NUMBA:
                 if r_max >= 0:
                     for j in range(c_min, c_max):
                         run[j] = 0
-                    bx0 = max(x0, c_min)
-                    bx1 = min(x1b, c_max)
+                    # the model's columns left of, in and right of the box (a partition)
+                    ba = min(max(c_min, x0), c_max)
+                    bb = max(min(c_max, x1b), ba)
+                    shift = x0 + j0 - 2          # image column -> window column
+                    wa = min(max(ba - shift, 0), ww)
+                    wb = max(min(bb - shift, ww), wa)
                     r = r_min
                     while r < height:
                         if r <= r_max:
-                            s1, k1 = _add_row(acc, r, run, dt, c, c_min, c_max)
+                            _add_row(acc, r, run, c_min, c_max)
                         else:
                             # below the last crossing the column sums stay: stop when all are 0
                             busy = False
@@ -260,14 +265,26 @@ if HAVE_NUMBA:
                                     break
                             if not busy:
                                 break
+                        if y0 <= r < y1b:
+                            wi = r - y0 - i0 + 2
+                            for j in range(wa):
+                                win[wi, j] = _INIT
+                            for j in range(wb, ww):
+                                win[wi, j] = _INIT
+                            s1, k1 = _sum_seed_row(run, dt, c, r, ba, bb, win, wi, shift)
+                            seeds += k1
+                            if c_min < ba:
+                                s2, k2 = _sum_row(run, dt, c, r, c_min, ba)
+                                s1 += s2
+                                k1 += k2
+                            if bb < c_max:
+                                s2, k2 = _sum_row(run, dt, c, r, bb, c_max)
+                                s1 += s2
+                                k1 += k2
+                        else:
                             s1, k1 = _sum_row(run, dt, c, r, c_min, c_max)
                         t1 += s1
                         model_area += k1
-                        if y0 <= r < y1b:
-                            wi = r - y0 - i0 + 2
-                            for j in range(ww):
-                                win[wi, j] = _INIT
-                            seeds += _seed_row(win, wi, run, bx0, bx1, x0 + j0 - 2)
                         r += 1
                     r_end = r
                     # _add_row cleared the rows it read; clear a crossing on row ``height``
