@@ -207,7 +207,7 @@ if HAVE_NUMBA:
             bh_max = max(bh_max, boxes[c, 3] - boxes[c, 1])
             bw_max = max(bw_max, boxes[c, 2] - boxes[c, 0])
         for t in prange(nthreads):
-            orient, acc, run, live, flag = scan_buffers(F, E, height, width)
+            orient, acc, run, live, flag, cols = scan_buffers(F, E, height, width)
             xs = np.empty(V, X.dtype)
             ys = np.empty(V, X.dtype)
             vs = np.empty(V, np.bool_)
@@ -223,7 +223,8 @@ if HAVE_NUMBA:
                     continue
                 bad[t] += project_view(X[p, c], cam[c], dist[c], has_dist, has_skew, xs, ys, vs)
                 c_min, c_max, r_min, r_max = scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd,
-                                                        orient, flag, live, acc, height, width)
+                                                        orient, flag, live, cols, acc, height,
+                                                        width)
                 x0, y0, x1b, y1b = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
                 bh = y1b - y0
                 bw = x1b - x0
