@@ -61,38 +61,45 @@ if HAVE_NUMBA:
         left/right neighbour; the minimum of the same 8 terms, so the transform is the
         same integer image as the one-loop form (tested), 2-2.5x faster. ``cand`` is
         allocated here, not passed in: LLVM only vectorises when it can prove that ``cand``
-        and ``tmp`` do not overlap."""
+        and ``tmp`` do not overlap. The serial part is the recurrence
+        ``r[j] = min(c[j], r[j - 1] + HV)`` (c: the row's candidate, 0 at a seed; backward:
+        the pixel's own value too, which leaves every value <= HV as it is), run as a prefix
+        minimum of ``c[j] - j * HV`` (``r[j] = j * HV + min_k<=j (c[k] - k * HV)``, exact in
+        integers; every value stays below 2**31: far ones below ``_INIT + (bh + bw + 4) *
+        _LONG``): the chain per pixel is a minimum instead of an add, a test and a minimum
+        (1.1x faster term 2)."""
         cand = np.empty(bw + 4, np.int32)
+        hv = np.int32(_HV)
         for i in range(2, bh + 2):                       # forward pass
             up2 = tmp[i - 2]
             up1 = tmp[i - 1]
+            row = tmp[i]
             for j in range(2, bw + 2):
                 a = min(min(up2[j - 1], up2[j + 1]), min(up1[j - 2], up1[j + 2]))
                 b = min(up1[j - 1], up1[j + 1])
-                cand[j] = min(min(a + _LONG, b + _DIAG), up1[j] + _HV)
-            row = tmp[i]
-            prev = row[1]
+                cv = min(min(a + _LONG, b + _DIAG), up1[j] + _HV)
+                cand[j] = (cv if row[j] != 0 else 0) - j * hv
+            m = row[1] - hv
+            ramp = hv
             for j in range(2, bw + 2):
-                r = row[j]
-                if r != 0:
-                    r = min(cand[j], prev + _HV)
-                    row[j] = r
-                prev = r
+                m = min(m, cand[j])
+                ramp += hv
+                row[j] = m + ramp
         for i in range(bh + 1, 1, -1):                   # backward pass
             dn2 = tmp[i + 2]
             dn1 = tmp[i + 1]
+            row = tmp[i]
             for j in range(2, bw + 2):
                 a = min(min(dn2[j - 1], dn2[j + 1]), min(dn1[j - 2], dn1[j + 2]))
                 b = min(dn1[j - 1], dn1[j + 1])
-                cand[j] = min(min(a + _LONG, b + _DIAG), dn1[j] + _HV)
-            row = tmp[i]
-            nxt = row[bw + 2]
+                cv = min(min(min(a + _LONG, b + _DIAG), dn1[j] + _HV), row[j])
+                cand[j] = cv + j * hv
+            m = row[bw + 2] + (bw + 2) * hv
+            ramp = (bw + 2) * hv
             for j in range(bw + 1, 1, -1):
-                r = row[j]
-                if r > _HV:
-                    r = min(min(r, cand[j]), nxt + _HV)
-                    row[j] = r
-                nxt = r
+                m = min(m, cand[j])
+                ramp -= hv
+                row[j] = m - ramp
         total = 0.0
         for k in range(len(obs_r)):
             total += np.float32(tmp[obs_r[k] + 2 - i0, obs_c[k] + 2 - j0]) * np.float32(1.0 / 65536.0)
