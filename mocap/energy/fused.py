@@ -49,7 +49,7 @@ def numba_available() -> bool:
 
 if HAVE_NUMBA:
 
-    @njit(cache=True)
+    @njit(cache=True, fastmath={"reassoc"})
     def _chamfer_term2(tmp, bh, bw, obs_r, obs_c, i0, j0):
         """Two-pass 5x5 chamfer transform (OpenCV's distanceTransform_5x5) of the seeds
         (tmp == 0) in the padded (bh + 4, bw + 4) image, far pixels ``_INIT``; returns the sum
@@ -67,7 +67,9 @@ if HAVE_NUMBA:
         minimum of ``c[j] - j * HV`` (``r[j] = j * HV + min_k<=j (c[k] - k * HV)``, exact in
         integers; every value stays below 2**31: far ones below ``_INIT + (bh + bw + 4) *
         _LONG``): the chain per pixel is a minimum instead of an add, a test and a minimum
-        (1.1x faster term 2)."""
+        (1.1x faster term 2). The sum may be reassociated (``reassoc``: several partial sums,
+        no latency chain of float adds over the observed pixels): it is exact in float64 in any
+        order, its terms being multiples of 2**-16 and the sum below 2**30."""
         cand = np.empty(bw + 4, np.int32)
         hv = np.int32(_HV)
         for i in range(2, bh + 2):                       # forward pass
