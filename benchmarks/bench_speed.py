@@ -4,7 +4,7 @@ against a stored baseline (not a timed test: run it by hand on a quiet machine).
     .venv/bin/python benchmarks/bench_speed.py [--frames 4] [--threads 1]
         [--trackers local,local_sift,apf_prior,apf,hybrid] [--backend auto|numba|numpy]
         [--legacy-local] [--compare] [--baseline benchmarks/baseline_speed.json]
-        [--save-baseline] [--frame-times FILE]
+        [--save-baseline] [--frame-times FILE] [--label NAME]
 
 Fixed settings: the MPI08-like rig (8 views, 1004 x 1004), 256 px internal silhouettes, a
 synthetic walk (seed 0, textured images so that ``local_sift`` has SIFT features; the other
@@ -127,6 +127,8 @@ def main() -> None:
     p.add_argument("--save-baseline", action="store_true", help="store this run's times as baseline")
     p.add_argument("--frame-times", type=Path, default=None,
                    help="append every frame's seconds to this JSON-lines file (one line per run)")
+    p.add_argument("--label", default=None,
+                   help="a name for this run in the --frame-times line (e.g. the checkout timed)")
     args = p.parse_args()
 
     base = compose("track")
@@ -170,7 +172,8 @@ def main() -> None:
     if args.frame_times:
         with args.frame_times.open("a") as f:
             f.write(json.dumps({"commit": _commit(), "load": load, "times": frame_times,
-                                "cpu": cpu_times, "load_after": os.getloadavg()[0]}) + "\n")
+                                "cpu": cpu_times, "load_after": os.getloadavg()[0],
+                                "label": args.label}) + "\n")
     if args.save_baseline:
         args.baseline.write_text(json.dumps({
             "seconds_per_frame": results, "path": paths[-1], "threads": args.threads,

@@ -39,18 +39,19 @@ if HAVE_NUMBA:
     @njit(cache=True, inline="always")
     def scan_buffers(num_faces, num_edges, height, width):
         """Work arrays of :func:`scan_edges` and the row sums, one set per thread: orient,
-        acc (zeroed), run (the running column sums), live, flag."""
+        acc (zeroed), run (the running column sums), live, flag, cols."""
         return (np.zeros(num_faces + 1, np.int32), np.zeros((height + 1, width), np.int32),
                 np.zeros(width, np.int32), np.empty(num_edges, np.int32),
-                np.empty(num_edges, np.uint8))
+                np.empty(num_edges, np.uint8), np.empty((num_edges, 2), np.int32))
 
     @njit(cache=True, inline="always")
-    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, acc, height, width):
+    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, acc, height,
+                   width):
         """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
         near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
-        added at their column crossings. orient (F + 1,), flag (E,), live (E,) are work
-        arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max] (r_max -1:
-        nothing drawn)."""
+        added at their column crossings. orient (F + 1,), flag (E,), live (E,), cols (E, 2)
+        are work arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max]
+        (r_max -1: nothing drawn)."""
         F = faces.shape[0]
         E = ea.shape[0]
         K = fwd.shape[1]
@@ -83,30 +84,39 @@ if HAVE_NUMBA:
         r_max = -1
         # edges whose weight is not 0 (~10 %): flagged by a vectorised gather, then
         # compacted without a branch (a branch per edge mispredicts on every contour
-        # edge), then scan-converted
+        # edge); of those, the ones that cross a column centre (~60 %: at 256 px most
+        # contour edges are short) compacted the same way with their columns [lo, hi),
+        # then scan-converted (1.2x faster than a branch on hi == lo in that loop)
         contour_flags(orient, fwd, bwd, flag)
         n_live = 0
         for e in range(E):
             live[n_live] = e
             n_live += flag[e]
+        n_cross = 0
         for i_live in range(n_live):
             e = live[i_live]
+            xa = xs[ea[e]]
+            xb = xs[eb[e]]
+            lo = np.ceil(min(max(min(xa, xb), 0.0), width))
+            hi = np.ceil(min(max(max(xa, xb), 0.0), width))
+            live[n_cross] = e                # n_cross <= i_live: read already
+            cols[n_cross, 0] = int(lo)
+            cols[n_cross, 1] = int(hi)
+            n_cross += hi != lo
+        for i_cross in range(n_cross):
+            e = live[i_cross]
             w = np.int64(0)                  # not 0: the flags kept only those
             for k in range(K):
                 w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
             xa = xs[ea[e]]
             xb = xs[eb[e]]
-            lo = np.ceil(min(max(min(xa, xb), 0.0), width))
-            hi = np.ceil(min(max(max(xa, xb), 0.0), width))
-            if hi == lo:
-                continue
             if xa > xb:
                 w = -w
             fxa = np.float64(xa)
             fya = np.float64(ys[ea[e]])
             slope = (np.float64(ys[eb[e]]) - fya) / (np.float64(xb) - fxa)
-            j0 = int(lo)
-            j1 = int(hi)
+            j0 = cols[i_cross, 0]
+            j1 = cols[i_cross, 1]
             c_min = min(c_min, j0)
             c_max = max(c_max, j1)
             for j in range(j0, j1):
@@ -124,13 +134,13 @@ if HAVE_NUMBA:
         F = faces.shape[0]
         E = ea.shape[0]
         for t in prange(nthreads):
-            orient, acc, run, live, flag = scan_buffers(F, E, height, width)
+            orient, acc, run, live, flag, cols = scan_buffers(F, E, height, width)
             for n in range(t, N, nthreads):
                 mask = out[n]
                 mask[:, :] = False
                 c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd,
-                                                        bwd, orient, flag, live, acc, height,
-                                                        width)
+                                                        bwd, orient, flag, live, cols, acc,
+                                                        height, width)
                 if r_max < 0:
                     continue
                 for j in range(c_min, c_max):

@@ -219,3 +219,30 @@ def test_fused_refuses_camera_coordinates_of_the_wrong_shape(body):
         compiled.fused(X[:, :2], rig, target)
     with pytest.raises(ValueError, match="vertices"):
         compiled.fused(X[..., :-1], rig, target)
+
+
+def test_fused_equals_the_numpy_path_where_the_model_overhangs_the_box_on_every_side(body):
+    """An observed silhouette smaller than the model (a patch inside the body, another just
+    outside it): the model's rows and columns run past the grown box on all four sides, so the row scan
+    sums columns left of, in and right of the box and seeds term 2's window only inside it."""
+    rig, sb, _, chi, numpy_energy = scene(body)
+    masks = numpy_energy.model_masks(sb.pose(body.zero_pose(1)).vertices)[0]
+    observed = np.zeros_like(masks)
+    for c, m in enumerate(masks):
+        rows, cols = np.nonzero(m)
+        r, q = int(np.median(rows)), int(np.median(cols))
+        observed[c, r - 3:r + 4, q - 2:q + 3] = True               # inside the body
+        gap = q + int(np.argmin(m[r, q:]))                          # first background pixel
+        observed[c, r:r + 2, gap:gap + 2] = True                    # right of the torso
+    target = silhouette_target(observed, 1.0, margin=2)
+    model = numpy_energy.model_masks(sb.pose(chi[:-1]).vertices)
+    x0, y0, x1, y1 = target.boxes.T
+    h, w = target.size
+    cols, rows = model.any(axis=2), model.any(axis=3)
+    overhang = ((cols.argmax(-1) < x0) & (w - cols[..., ::-1].argmax(-1) > x1)
+                & (rows.argmax(-1) < y0) & (h - rows[..., ::-1].argmax(-1) > y1))
+    assert overhang.mean() > 0.5, overhang.mean()          # most particle-views, every side
+    compiled = SilhouetteEnergy(sb, rig, scale=1.0, backend="numba")
+    a, b = compiled.per_view(chi, target), numpy_energy.per_view(chi, target)
+    assert np.all(np.isfinite(a))
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5)
