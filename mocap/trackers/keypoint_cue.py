@@ -13,8 +13,12 @@ them (:func:`~mocap.energy.markers.arrange_detections`, the landmark set of
   over the views that see candidates for it exceeds ``flag`` x the gate is misaligned.
 
 The keypoint-to-landmark offsets are learned as the marker tracker learns them
-(:mod:`mocap.trackers.markers.offsets`). With ``weight`` = 0 the cue is off and the hybrid is
-today's, bit for bit.
+(:mod:`mocap.trackers.markers.offsets`) when ``offsets.frames`` > 0; they are off by default
+(and in ``hybrid_kp``): where the keypoints mark the joints themselves (the real-motion
+benchmark) the offsets the data give are the tracked joints' own constant error (the body's
+proportions), and learning them raised joint and surface error on every dev sequence
+(docs/results/surface.md, "Keypoint offsets"). With ``weight`` = 0 the cue is off and the
+hybrid is today's, bit for bit.
 """
 
 from __future__ import annotations

@@ -37,8 +37,9 @@ _HYBRID_100X15 = replace(HybridSettings(), apf=replace(_HYBRID_APF, particles=10
 #: correspondence), chosen on the real-motion benchmark's dev split (docs/results/two_cue_hybrid.md)
 KEYPOINT_WEIGHT = 200.0
 #: its start-up shape fit to the keypoints' bone lengths (prior std around the silhouettes' shape),
-#: chosen on the same dev split among 0, 1 and 3 (docs/results/real_motion.md)
-KEYPOINT_SHAPE_STD = 1.0
+#: chosen on the same dev split among 0, 1 and 3 (docs/results/real_motion.md), then among 1, 1.5
+#: and 2 (issue 34: docs/results/surface.md, "Keypoint offsets")
+KEYPOINT_SHAPE_STD = 1.5
 #: the frames whose triangulated keypoints' median bone lengths the shape is fitted to again
 #: (issue 34, chosen on the same dev split among 1 and 15: docs/results/surface.md, "accuracy push")
 KEYPOINT_SHAPE_FRAMES = 15

@@ -119,16 +119,20 @@ class ShapeRefinement:
 @dataclass(frozen=True)
 class OffsetLearning:
     """frames: tracked frames to learn from (0: off); max_norm: metres; min_samples: per
-    landmark."""
+    landmark; significance: keep a landmark's offset only where its median over the frames is
+    this many standard errors from zero (the per-frame spread's, all three axes:
+    :func:`mocap.trackers.markers.offsets.offset_significance`; 0: every offset kept)."""
 
     frames: int = 0
     max_norm: float = 0.08
     min_samples: int = 3
+    significance: float = 0.0
 
     def __post_init__(self) -> None:
         check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
         check(self, "max_norm", self.max_norm >= 0, ">= 0 m")
         check(self, "min_samples", self.min_samples >= 1, "an integer >= 1")
+        check(self, "significance", self.significance >= 0, ">= 0 standard errors (0: off)")
 
 
 @dataclass(frozen=True)

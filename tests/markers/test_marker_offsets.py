@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mocap.body.twists import se3_exp
-from mocap.trackers.markers.offsets import local_residuals, robust_offsets
+from mocap.trackers.markers.offsets import local_residuals, offset_significance, robust_offsets
 from mocap.trackers.tracker_settings import OffsetLearning
 
 DEV = Path(__file__).resolve().parents[2] / "data" / "real_motion" / "dev"
@@ -34,6 +34,43 @@ def test_robust_offsets_take_the_median_clip_and_need_samples():
     np.testing.assert_allclose(out[0], o[0], atol=1e-12)
     np.testing.assert_allclose(out[1], [0.0, 0.08, 0.0], atol=1e-12)   # clipped to 8 cm
     np.testing.assert_array_equal(out[2], 0.0)
+
+
+def test_significance_keeps_a_true_3cm_offset_and_drops_pure_noise():
+    # 30 frames of 1 cm per-axis noise: landmark 0 has a true (3, 0, 0) cm offset, landmark 1 none
+    rng = np.random.default_rng(1)
+    T = 30
+    samples = rng.normal(0.0, 0.01, (T, 2, 3))
+    samples[:, 0] += [0.03, 0.0, 0.0]
+    z = offset_significance(samples)
+    # the median's standard error is 1.2533 x 1 cm / sqrt(30) = 2.3 mm: 3 cm is ~13 of them
+    assert 9.0 < z[0] < 17.0
+    assert z[1] < 4.0                                               # noise: ~sqrt(3)
+    out = robust_offsets(samples, OffsetLearning(frames=T, significance=5.0))
+    np.testing.assert_allclose(out[0], [0.03, 0.0, 0.0], atol=0.005)
+    np.testing.assert_array_equal(out[1], 0.0)
+    kept = robust_offsets(samples, OffsetLearning(frames=T))        # 0: every median kept
+    assert np.linalg.norm(kept[1]) > 0
+
+
+def test_significance_of_pure_noise_follows_a_chi_with_3_dof():
+    rng = np.random.default_rng(2)
+    z = offset_significance(rng.normal(0.0, 0.02, (40, 2000, 3)))
+    assert abs(np.median(z) - 1.54) < 0.15                           # median of chi(3): 1.538
+    assert np.mean(z > 5.0) < 0.005
+
+
+def test_significance_is_zero_where_a_landmark_is_measured_in_fewer_than_two_frames():
+    samples = np.full((5, 2, 3), np.nan)
+    samples[0, 0] = [0.05, 0.0, 0.0]
+    samples[:, 1] = [0.0, 0.02, 0.0]                                # no spread: 1 um counts
+    z = offset_significance(samples)
+    assert z[0] == 0.0 and z[1] > 1e3
+
+
+def test_offset_significance_setting_is_refused_below_zero():
+    with pytest.raises(ValueError, match="significance"):
+        OffsetLearning(significance=-1.0)
 
 
 def test_tracker_learns_offsets_and_refines_on_synthetic_markers(body):

@@ -25,6 +25,7 @@ the sequence's own residual offsets on top.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -41,9 +42,31 @@ def local_residuals(transforms: np.ndarray, points: np.ndarray, rest: np.ndarray
     return np.einsum("lji,lj->li", R, points - t) - rest
 
 
+def offset_significance(samples: np.ndarray) -> np.ndarray:
+    """(T, L, 3) per-frame residuals (NaN: unmeasured) -> (L,) how far each landmark's median
+    residual is from zero against its own noise: sqrt(sum over axes (median / se)^2), se the
+    median's standard error from the per-frame spread, 1.2533 x 1.4826 MAD / sqrt(n) (Gaussian
+    frames). Pure noise gives ~sqrt(3) (a chi with 3 degrees of freedom); a constant offset
+    grows with sqrt(n). 0 where fewer than 2 frames measured the landmark; a spread of 0 counts
+    as 1 micrometre."""
+    samples = np.asarray(samples, np.float64)
+    n = np.isfinite(samples[..., 0]).sum(axis=0)                                   # (L,)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)          # a landmark measured in no frame
+        med = np.nanmedian(samples, axis=0)                                        # (L, 3)
+        mad = np.nanmedian(np.abs(samples - med), axis=0)
+    se = 1.2533 * np.maximum(1.4826 * mad, 1e-6) / np.sqrt(np.maximum(n, 1))[:, None]
+    z = np.sqrt(np.nansum((med / se) ** 2, axis=1))
+    return np.where(n >= 2, z, 0.0)
+
+
 def robust_offsets(samples: np.ndarray, settings: OffsetLearning) -> np.ndarray:
-    """(T, L, 3) per-frame residuals -> (L, 3) offsets (zero where too few samples)."""
+    """(T, L, 3) per-frame residuals -> (L, 3) offsets (zero where too few samples, and where
+    the median is not ``settings.significance`` standard errors from zero:
+    :func:`offset_significance`; 0 keeps every median)."""
     have = np.isfinite(samples[..., 0]).sum(axis=0) >= settings.min_samples
+    if settings.significance > 0:
+        have &= offset_significance(samples) >= settings.significance
     with np.errstate(all="ignore"):
         o = np.nanmedian(np.where(have[None, :, None], samples, 0.0), axis=0)
     o = np.where(have[:, None] & np.isfinite(o), o, 0.0)
