@@ -10,7 +10,9 @@ whether the search's pose was kept. Two starts:
   random state ``mocap track`` gives it (the same run as ``mocap track ... seed=S frames=F``);
 - ``oracle``: the joint oracle's pose and shape of frame 0 (our body fitted to the true joints,
   ``mocap.eval.run_metrics.oracle_fit``), tracked with the same settings: what tracking loses when
-  the start is as good as our body can be.
+  the start is as good as our body can be;
+- ``self_pose`` / ``oracle_pose``: the self-initialisation's pose with the oracle's shape / the
+  oracle's pose with the self-initialisation's shape (is the start's error its shape or its pose?).
 
 Per run: the error of frame 0, frames 1-9 and 10-; per joint (mean and frame 0); the frames where
 the tracked arms or legs are nearer the other side's true joints (left/right swapped); the APF calls,
@@ -99,8 +101,15 @@ def run(seq_path: Path, start: str, frames: int, seed: int, tracker_name: str, o
         from mocap.trackers.contract import initial_estimate_of
 
         fit = oracle_fit(body, seq, frames)
-        initial = {0: initial_estimate_of(np.array(fit.chi[0]), np.array(fit.alpha))}
+        chi, alpha = np.array(fit.chi[0]), np.array(fit.alpha)
         info = {"oracle_mm": fit.metrics["raw_mm"]}
+        if start != "oracle":           # one of the two from the self-initialisation (cached)
+            own = tracker.initializer(init_cache).start(frame_of(seq, 0))[0][0]
+            if start == "self_pose":
+                chi = np.array(own.chi)
+            else:                       # oracle_pose: the oracle's pose on the self-initialisation's shape
+                alpha = np.array(own.alpha)
+        initial = {0: initial_estimate_of(chi, alpha)}
     rec = Recorder(tracker)
     result = run_frames(tracker, seq, initial, frames, threads=1)
     ests = result.estimates
@@ -146,7 +155,10 @@ def summary(r: dict) -> str:
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("sequences", nargs="+", type=Path)
-    p.add_argument("--start", nargs="+", default=["self", "oracle"], choices=["self", "oracle"])
+    p.add_argument("--start", nargs="+", default=["self", "oracle"],
+                   choices=["self", "oracle", "self_pose", "oracle_pose"],
+                   help="self_pose: the self-initialisation's pose with the oracle's shape; oracle_pose: "
+                        "the reverse")
     p.add_argument("--frames", type=int, default=40)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--tracker", default="hybrid")
