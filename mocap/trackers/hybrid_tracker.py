@@ -159,11 +159,14 @@ class HybridTracker(LocalTracker):
         pelvis are each fitted by the local optimiser with the keypoints, and the one of lowest
         silhouette + marker energy goes on; then every limb chain in turn is searched (as a
         misaligned limb is, its pose kept where that energy falls), and the local optimiser
-        ends (kept where it falls too). Returns (pose, shape, report); without the cue (or with
+        ends (kept where it falls too). Returns (pose, shape, report); without the cue and with
+        ``start_search``: :meth:`search_start`; otherwise without the cue (or with
         ``keypoints.init`` off, or no detections in the frame): pose and shape unchanged and {}."""
         on = self.cue is not None and self.tracker_settings.keypoints.init
         obs = self.cue.observe(frame) if on else None
         if obs is None:
+            if self.cue is None and self.tracker_settings.start_search:
+                return self.search_start(frame, chi, alpha)
             return chi, alpha, {}
         self.initialize(chi, alpha)
         report = {}
@@ -193,6 +196,35 @@ class HybridTracker(LocalTracker):
         chi, after = (local, float(e[1])) if e[1] < e[0] else (chi, float(e[0]))
         report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
         return chi, np.asarray(self.shaped.alpha, np.float64), report
+
+    def search_start(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, dict]:
+        """The silhouette-only start refined (``start_search``): every limb chain of the pose
+        ``chi`` (D,) searched in turn as a misaligned limb is (:meth:`search`), its pose kept where
+        the frame's mean per-view E_S falls, then the local optimiser (kept where E_S falls too).
+        Returns (pose, shape ``alpha`` unchanged, report: E_S before and after, chains kept)."""
+        self.initialize(chi, alpha)
+        target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+
+        def e_s(poses: np.ndarray) -> np.ndarray:
+            return self.sil.per_view(poses, target)[:, target.valid].mean(axis=1)
+
+        before = float(e_s(chi[None])[0])
+        kept = []
+        for root, limbs in self.chains:
+            flagged = np.zeros(self.body.num_joints, bool)
+            flagged[limbs] = True
+            free = self.detector.free_dofs(LimbCheck(flagged, [], {}))
+            found, _, _ = self.search(frame, chi, chi, free)
+            e = e_s(np.stack([chi, found]))
+            if e[1] < e[0]:
+                chi = found
+                kept.append(self.body.joint_names[root])
+        local, _ = self.local_step(frame, chi)
+        e = e_s(np.stack([chi, local]))
+        chi, after = (local, float(e[1])) if e[1] < e[0] else (chi, float(e[0]))
+        return chi, np.asarray(alpha), {"start_search": {"energy_before": before, "energy_after": after,
+                                                         "chains_kept": kept}}
 
     def two_cue_energy(self, frame: Frame, obs, chi: np.ndarray) -> np.ndarray:
         """(P, D) -> (P,): the frame's mean per-view E_S plus the scaled marker likelihood."""

@@ -336,10 +336,15 @@ class HybridSettings:
     (``local``), the APF over the misaligned limbs (``apf``), the 2D keypoint cue
     (``keypoints``; its ``weight`` 0: off, the paper's silhouette-only system; ``hybrid_kp``:
     on, :mod:`mocap.trackers.keypoint_cue`), the self-initialisation's settings and
-    ``keep_particles``."""
+    ``keep_particles``. ``start_search``: without the keypoint cue, search every limb chain of
+    the self-initialisation's pose in turn with the limb-repair APF, each kept where the frame's
+    E_S falls, then a local step (kept where it falls too): the start's limbs get the search a
+    misaligned limb gets while tracking, which the check after the start never asks for
+    (:meth:`~mocap.trackers.hybrid_tracker.HybridTracker.refine_initial`)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = HybridSearchSettings()
     keypoints: KeypointSettings = KeypointSettings()
     initialization: InitSettings = InitSettings()
     keep_particles: bool = False
+    start_search: bool = False
