@@ -12,7 +12,8 @@ reused). Printed and appended to ``--out`` (one JSON line per sequence): seconds
 frame-0 error (raw MPJPE over the joints matched by name, what a run's ``per_frame_mm[0]``
 holds), ``cpu_seconds`` (the process's CPU time over the initialisation: with one thread about
 the seconds a quiet machine takes, and much less moved by other jobs than the wall time), the
-winner's margin, the load (``os.getloadavg``) before and after, and the
+winner's margin, the load (``os.getloadavg``) before and after, the start (``chi``, ``alpha``:
+JSON floats round-trip exactly, so two checkouts' starts compare bit for bit), and the
 ``mocap`` package the run imported, so that two checkouts can be compared in one session by
 running this file with PYTHONPATH pointing at each in turn::
 
@@ -93,7 +94,9 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
             "frame0_mm": round(float(acc["per_frame_mm"][0]), 2),
             "margin": info.get("margin"), "load_before": round(load, 2),
             "load_after": round(os.getloadavg()[0], 2), "threads": threads,
-            "hypotheses": info.get("hypotheses")}
+            "hypotheses": info.get("hypotheses"),
+            # the start itself (floats written exactly): two checkouts' starts compare bit for bit
+            "chi": [float(x) for x in chi], "alpha": [float(x) for x in alpha]}
 
 
 def main() -> None:
