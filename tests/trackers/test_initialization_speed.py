@@ -127,3 +127,76 @@ def test_the_progress_callback_does_not_change_the_result(walk):
                                        progress=lambda stage, f: None)
     np.testing.assert_array_equal(quiet[0], told[0])
     np.testing.assert_array_equal(quiet[1], told[1])
+
+
+# -- the same start for less overhead (issue 38): each faster path gives the old numbers -------
+def _per_view_camera_coordinates(rig, points):
+    """The product camera_coordinates took before: one (3, 3) @ (3, N) per pose and view."""
+    pts = np.asarray(points)
+    dtype = np.result_type(pts.dtype, np.float32)
+    pts = pts.astype(dtype, copy=False)
+    X = rig.R.astype(dtype) @ np.swapaxes(pts, -1, -2)[..., None, :, :]
+    X += rig.t.astype(dtype)[:, :, None]
+    return X
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_camera_coordinates_equal_the_per_view_product_bit_for_bit(walk, dtype):
+    from mocap.cameras import camera_coordinates
+
+    body, seq = walk
+    rng = np.random.default_rng(4)
+    chi = np.zeros((7, body.num_dofs))
+    chi[:, 6:] = rng.uniform(-0.3, 0.3, (7, body.num_dofs - 6))
+    verts = body.shaped().pose(chi).vertices.astype(dtype)            # (P, V, 3)
+    X = camera_coordinates(seq.rig, verts)
+    assert X.shape == (7, len(seq.rig), 3, body.num_vertices) and X.dtype == dtype
+    assert X.flags.c_contiguous
+    np.testing.assert_array_equal(X, _per_view_camera_coordinates(seq.rig, verts))
+    np.testing.assert_array_equal(camera_coordinates(seq.rig, verts[0]),
+                                  _per_view_camera_coordinates(seq.rig, verts[0]))
+    # and what they are: R x + t, in float64 to float32's rounding
+    want = np.einsum("cij,pvj->pciv", seq.rig.R, verts.astype(np.float64)) + seq.rig.t[None, :, :, None]
+    np.testing.assert_allclose(X, want, rtol=1e-5, atol=1e-5)
+
+
+def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk):
+    from mocap.trackers.shape_search import posed_vertices
+
+    body, _ = walk
+    rng = np.random.default_rng(5)
+    chis = np.zeros((9, body.num_dofs))
+    chis[:, :6] = rng.normal(0, 0.3, (9, 6))
+    chis[:, 6:] = rng.uniform(-0.4, 0.4, (9, body.num_dofs - 6))
+    shapes = rng.normal(0, 1.0, (9, body.num_shape))
+    got = posed_vertices(body, chis, shapes)
+    np.testing.assert_array_equal(got, body.pose(chis, shapes).vertices)
+    # one particle alone: its own shaped body posed, to float32 rounding
+    one = body.shaped(shapes[3]).pose(chis[3]).vertices[0]
+    np.testing.assert_allclose(got[3], one, atol=2e-5)
+
+
+def test_the_start_is_bit_identical_to_the_slower_paths(walk, monkeypatch):
+    import mocap.energy.silhouette as silhouette
+    import mocap.local.contour as contour
+    import mocap.trackers.shape_search as shape_search
+
+    body, seq = walk
+    settings = InitSettings(headings=4, hypotheses=1, keep=2, rounds=2, pose_particles=12, pose_layers=3,
+                            shape_particles=10, shape_layers=3, resolution=128, select_resolution=160,
+                            partitioned=True, local_iterations=3)
+
+    def start():
+        return initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), settings)
+
+    chi, alpha, diag = start()
+    for module in (silhouette, contour, shape_search):
+        if hasattr(module, "camera_coordinates"):
+            monkeypatch.setattr(module, "camera_coordinates", _per_view_camera_coordinates)
+    monkeypatch.setattr(shape_search, "posed_vertices", lambda b, c, a: b.pose(c, a).vertices)
+    chi_old, alpha_old, diag_old = start()
+    np.testing.assert_array_equal(chi, chi_old)
+    np.testing.assert_array_equal(alpha, alpha_old)
+    assert [h["final_energy"] for h in diag["hypotheses"] if "final_energy" in h] == \
+        [h["final_energy"] for h in diag_old["hypotheses"] if "final_energy" in h]
+    assert np.any(alpha != 0)                     # the shape search ran
