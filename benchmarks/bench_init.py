@@ -21,7 +21,7 @@ running this file with PYTHONPATH pointing at each in turn::
         PYTHONPATH=$root .venv/bin/python benchmarks/bench_init.py --data $d \
         --label $root --out /tmp/ab.jsonl; done; done
 
-``--profile FILE``: cProfile of the (first) initialisation, its top lines printed. ``--init
+``--profile FILE``: cProfile of the (first) initialisation in CPU seconds, its top lines printed. ``--init
 JSON``: initialiser settings (:class:`~mocap.trackers.tracker_settings.InitSettings` fields)
 changed for the run, e.g. ``'{"rounds": 1, "arm_abductions": [-0.6, 0.8]}'`` (the checkout
 must know the fields: leave it out for an older one).
@@ -73,7 +73,9 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
         trk.init_settings = dataclasses.replace(trk.init_settings, **init)
     frame = frame_of(seq, 0)
     load = os.getloadavg()[0]
-    prof = cProfile.Profile() if profile else None
+    # the profile in CPU seconds (process_time): on a loaded machine the wall clock mostly
+    # measures the other jobs
+    prof = cProfile.Profile(time.process_time) if profile else None
     with thread_budget(threads):
         t, cpu = time.perf_counter(), time.process_time()
         if prof is not None:
