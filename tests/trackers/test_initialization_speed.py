@@ -130,8 +130,9 @@ def test_the_progress_callback_does_not_change_the_result(walk):
 
 
 # -- the same start for less overhead (issue 38): each faster path gives the old numbers -------
-def _per_view_camera_coordinates(rig, points):
-    """The product camera_coordinates took before: one (3, 3) @ (3, N) per pose and view."""
+def _per_view_camera_coordinates(rig, points, out=None):
+    """The product camera_coordinates took before: one (3, 3) @ (3, N) per pose and view, in a
+    fresh array (``out`` ignored)."""
     pts = np.asarray(points)
     dtype = np.result_type(pts.dtype, np.float32)
     pts = pts.astype(dtype, copy=False)
@@ -155,6 +156,12 @@ def test_camera_coordinates_equal_the_per_view_product_bit_for_bit(walk, dtype):
     np.testing.assert_array_equal(X, _per_view_camera_coordinates(seq.rig, verts))
     np.testing.assert_array_equal(camera_coordinates(seq.rig, verts[0]),
                                   _per_view_camera_coordinates(seq.rig, verts[0]))
+    # into a caller's buffer: the same numbers, written there (a stale buffer is overwritten)
+    buffer = np.full(X.shape, np.nan, dtype)
+    assert camera_coordinates(seq.rig, verts, out=buffer) is not None
+    np.testing.assert_array_equal(buffer, X)
+    with pytest.raises(ValueError, match="out must be a C-contiguous"):
+        camera_coordinates(seq.rig, verts, out=np.empty(X.shape, np.float16))
     # and what they are: R x + t, in float64 to float32's rounding
     want = np.einsum("cij,pvj->pciv", seq.rig.R, verts.astype(np.float64)) + seq.rig.t[None, :, :, None]
     np.testing.assert_allclose(X, want, rtol=1e-5, atol=1e-5)
@@ -200,3 +207,22 @@ def test_the_start_is_bit_identical_to_the_slower_paths(walk, monkeypatch):
     assert [h["final_energy"] for h in diag["hypotheses"] if "final_energy" in h] == \
         [h["final_energy"] for h in diag_old["hypotheses"] if "final_energy" in h]
     assert np.any(alpha != 0)                     # the shape search ran
+
+
+def test_an_energy_reusing_its_camera_buffer_scores_as_a_fresh_one(walk):
+    from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
+
+    body, seq = walk
+    scale = 0.5
+    target = silhouette_target(seq.masks[0], scale)
+    rng = np.random.default_rng(6)
+    chi = np.tile(seq.gt.chi[0], (5, 1))
+    chi[:, 6:] += rng.normal(0, 0.1, (5, body.num_dofs - 6))
+    kept = SilhouetteEnergy(body.shaped(), seq.rig, scale)
+    # batches of other sizes in between: the buffer is remade, never read stale
+    got = [kept(chi, target), kept(chi[:2], target), kept(chi[3:4], target), kept(chi, target)]
+    want = [SilhouetteEnergy(body.shaped(), seq.rig, scale)(c, target)
+            for c in (chi, chi[:2], chi[3:4], chi)]
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+    np.testing.assert_array_equal(got[1], got[0][:2])
