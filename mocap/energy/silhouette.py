@@ -199,7 +199,6 @@ class SilhouetteEnergy:
         use_numba = backend == "numba" or (backend == "auto" and fused.numba_available())
         self.backend = "numba" if use_numba else "numpy"
         self.fused = fused.FusedSilhouetteEnergy(faces, num_vertices) if use_numba else None
-        self._camera = np.empty(0)          # camera coordinates of the last batch, reused
 
     def energy_vertices(self, vertices: np.ndarray) -> np.ndarray:
         """(P, V, 3) posed body vertices -> the vertices this energy rasterises."""
@@ -219,16 +218,8 @@ class SilhouetteEnergy:
         vertices = self.shaped.vertices(chi, self._basis)       # of the energy mesh
         if self.fused is None:
             return chamfer_energy(self._rasterize(vertices), target)
-        return self.fused(self._camera_coordinates(vertices), self.internal, target, near=0.05)
-
-    def _camera_coordinates(self, vertices: np.ndarray) -> np.ndarray:
-        """(P, V, 3) -> (P, C, 3, V) in a buffer kept for the next batch of that size (a search
-        scores many batches of one size; fresh pages cost more than the product)."""
-        dtype = np.result_type(vertices.dtype, np.float32)
-        shape = vertices.shape[:-2] + (len(self.internal), 3, vertices.shape[-2])
-        if self._camera.shape != shape or self._camera.dtype != dtype:
-            self._camera = np.empty(shape, dtype)
-        return camera_coordinates(self.internal, vertices, out=self._camera)
+        return self.fused(camera_coordinates(self.internal, vertices), self.internal, target,
+                          near=0.05)
 
     def __call__(self, chi: np.ndarray, target: SilhouetteTarget) -> np.ndarray:
         """(P, D) -> (P,) E_S, the mean over valid views."""

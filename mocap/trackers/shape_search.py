@@ -92,7 +92,6 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
     kernel = (fused.FusedSilhouetteEnergy(body.faces, body.num_vertices)
               if compiled and fused.numba_available() else None)
     base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
-    camera = [np.empty(0)]          # the camera coordinates' buffer, reused by batches of one size
 
     def energy(a: np.ndarray) -> np.ndarray:
         a = np.atleast_2d(a)
@@ -104,10 +103,7 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
             if translate:
                 verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
             if kernel is not None:
-                shape, dtype = (len(verts), len(rig), 3, verts.shape[1]), np.result_type(verts, np.float32)
-                if camera[0].shape != shape or camera[0].dtype != dtype:
-                    camera[0] = np.empty(shape, dtype)
-                per_view = kernel(camera_coordinates(rig, verts, out=camera[0]), rig, target, near=0.05)
+                per_view = kernel(camera_coordinates(rig, verts), rig, target, near=0.05)
             else:
                 px, depth = project(rig, verts, return_depth=True)
                 h, w = target.size

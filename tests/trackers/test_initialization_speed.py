@@ -129,44 +129,7 @@ def test_the_progress_callback_does_not_change_the_result(walk):
     np.testing.assert_array_equal(quiet[1], told[1])
 
 
-# -- the same start for less overhead (issue 38): each faster path gives the old numbers -------
-def _per_view_camera_coordinates(rig, points, out=None):
-    """The product camera_coordinates took before: one (3, 3) @ (3, N) per pose and view, in a
-    fresh array (``out`` ignored)."""
-    pts = np.asarray(points)
-    dtype = np.result_type(pts.dtype, np.float32)
-    pts = pts.astype(dtype, copy=False)
-    X = rig.R.astype(dtype) @ np.swapaxes(pts, -1, -2)[..., None, :, :]
-    X += rig.t.astype(dtype)[:, :, None]
-    return X
-
-
-@pytest.mark.parametrize("dtype", [np.float32, np.float64])
-def test_camera_coordinates_equal_the_per_view_product_bit_for_bit(walk, dtype):
-    from mocap.cameras import camera_coordinates
-
-    body, seq = walk
-    rng = np.random.default_rng(4)
-    chi = np.zeros((7, body.num_dofs))
-    chi[:, 6:] = rng.uniform(-0.3, 0.3, (7, body.num_dofs - 6))
-    verts = body.shaped().pose(chi).vertices.astype(dtype)            # (P, V, 3)
-    X = camera_coordinates(seq.rig, verts)
-    assert X.shape == (7, len(seq.rig), 3, body.num_vertices) and X.dtype == dtype
-    assert X.flags.c_contiguous
-    np.testing.assert_array_equal(X, _per_view_camera_coordinates(seq.rig, verts))
-    np.testing.assert_array_equal(camera_coordinates(seq.rig, verts[0]),
-                                  _per_view_camera_coordinates(seq.rig, verts[0]))
-    # into a caller's buffer: the same numbers, written there (a stale buffer is overwritten)
-    buffer = np.full(X.shape, np.nan, dtype)
-    assert camera_coordinates(seq.rig, verts, out=buffer) is not None
-    np.testing.assert_array_equal(buffer, X)
-    with pytest.raises(ValueError, match="out must be a C-contiguous"):
-        camera_coordinates(seq.rig, verts, out=np.empty(X.shape, np.float16))
-    # and what they are: R x + t, in float64 to float32's rounding
-    want = np.einsum("cij,pvj->pciv", seq.rig.R, verts.astype(np.float64)) + seq.rig.t[None, :, :, None]
-    np.testing.assert_allclose(X, want, rtol=1e-5, atol=1e-5)
-
-
+# -- the same start for less overhead (issue 38): the faster path gives the old numbers ------
 def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk):
     from mocap.trackers.shape_search import posed_vertices
 
@@ -183,9 +146,7 @@ def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk):
     np.testing.assert_allclose(got[3], one, atol=2e-5)
 
 
-def test_the_start_is_bit_identical_to_the_slower_paths(walk, monkeypatch):
-    import mocap.energy.silhouette as silhouette
-    import mocap.local.contour as contour
+def test_the_start_is_bit_identical_to_the_one_posed_by_the_body_model(walk, monkeypatch):
     import mocap.trackers.shape_search as shape_search
 
     body, seq = walk
@@ -197,9 +158,6 @@ def test_the_start_is_bit_identical_to_the_slower_paths(walk, monkeypatch):
         return initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), settings)
 
     chi, alpha, diag = start()
-    for module in (silhouette, contour, shape_search):
-        if hasattr(module, "camera_coordinates"):
-            monkeypatch.setattr(module, "camera_coordinates", _per_view_camera_coordinates)
     monkeypatch.setattr(shape_search, "posed_vertices", lambda b, c, a: b.pose(c, a).vertices)
     chi_old, alpha_old, diag_old = start()
     np.testing.assert_array_equal(chi, chi_old)
@@ -208,21 +166,3 @@ def test_the_start_is_bit_identical_to_the_slower_paths(walk, monkeypatch):
         [h["final_energy"] for h in diag_old["hypotheses"] if "final_energy" in h]
     assert np.any(alpha != 0)                     # the shape search ran
 
-
-def test_an_energy_reusing_its_camera_buffer_scores_as_a_fresh_one(walk):
-    from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
-
-    body, seq = walk
-    scale = 0.5
-    target = silhouette_target(seq.masks[0], scale)
-    rng = np.random.default_rng(6)
-    chi = np.tile(seq.gt.chi[0], (5, 1))
-    chi[:, 6:] += rng.normal(0, 0.1, (5, body.num_dofs - 6))
-    kept = SilhouetteEnergy(body.shaped(), seq.rig, scale)
-    # batches of other sizes in between: the buffer is remade, never read stale
-    got = [kept(chi, target), kept(chi[:2], target), kept(chi[3:4], target), kept(chi, target)]
-    want = [SilhouetteEnergy(body.shaped(), seq.rig, scale)(c, target)
-            for c in (chi, chi[:2], chi[3:4], chi)]
-    for g, w in zip(got, want, strict=True):
-        np.testing.assert_array_equal(g, w)
-    np.testing.assert_array_equal(got[1], got[0][:2])
