@@ -62,9 +62,11 @@ def posed_vertices(body: BodyModel, chis: np.ndarray, shapes: np.ndarray) -> np.
     verts, joints = body.rest(shapes)
     axes = resolve_axes(body.dofs, body.joint_names, joints)
     G = chain_transforms(body.parents, body.dof_joint, axes, joints, chis[:, :6], chis[:, 6:])
+    if not HAVE_NUMBA:
+        return lbs(body.weights, verts, G)
     P, J = G.shape[:2]
     blended = body.weights @ G[:, :, :3, :].transpose(1, 0, 2, 3).reshape(J, -1)     # (V, 12P)
-    if not HAVE_NUMBA or blended.dtype != verts.dtype:
+    if blended.dtype != verts.dtype:
         return lbs(body.weights, verts, G)
     out = np.empty(verts.shape, blended.dtype)
     _blend(blended, verts, out)

@@ -130,7 +130,8 @@ def test_the_progress_callback_does_not_change_the_result(walk):
 
 
 # -- the same start for less overhead (issue 38): the faster path gives the old numbers ------
-def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk):
+def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk, monkeypatch):
+    import mocap.trackers.shape_search as shape_search
     from mocap.trackers.shape_search import posed_vertices
 
     body, _ = walk
@@ -144,6 +145,9 @@ def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk):
     # one particle alone: its own shaped body posed, to float32 rounding
     one = body.shaped(shapes[3]).pose(chis[3]).vertices[0]
     np.testing.assert_allclose(got[3], one, atol=2e-5)
+    # without numba: the body model's own skinning, the same numbers
+    monkeypatch.setattr(shape_search, "HAVE_NUMBA", False)
+    np.testing.assert_array_equal(shape_search.posed_vertices(body, chis, shapes), got)
 
 
 def test_the_start_is_bit_identical_to_the_one_posed_by_the_body_model(walk, monkeypatch):
