@@ -12,7 +12,8 @@ reused). Printed and appended to ``--out`` (one JSON line per sequence): seconds
 frame-0 error (raw MPJPE over the joints matched by name, what a run's ``per_frame_mm[0]``
 holds), ``cpu_seconds`` (the process's CPU time over the initialisation: with one thread about
 the seconds a quiet machine takes, and much less moved by other jobs than the wall time), the
-winner's margin, the load (``os.getloadavg``) before and after, and the
+winner's margin, the load (``os.getloadavg``) before and after, the start (``chi``, ``alpha``:
+JSON floats round-trip exactly, so two checkouts' starts compare bit for bit), and the
 ``mocap`` package the run imported, so that two checkouts can be compared in one session by
 running this file with PYTHONPATH pointing at each in turn::
 
@@ -20,7 +21,7 @@ running this file with PYTHONPATH pointing at each in turn::
         PYTHONPATH=$root .venv/bin/python benchmarks/bench_init.py --data $d \
         --label $root --out /tmp/ab.jsonl; done; done
 
-``--profile FILE``: cProfile of the (first) initialisation, its top lines printed. ``--init
+``--profile FILE``: cProfile of the (first) initialisation in CPU seconds, its top lines printed. ``--init
 JSON``: initialiser settings (:class:`~mocap.trackers.tracker_settings.InitSettings` fields)
 changed for the run, e.g. ``'{"rounds": 1, "arm_abductions": [-0.6, 0.8]}'`` (the checkout
 must know the fields: leave it out for an older one).
@@ -72,7 +73,9 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
         trk.init_settings = dataclasses.replace(trk.init_settings, **init)
     frame = frame_of(seq, 0)
     load = os.getloadavg()[0]
-    prof = cProfile.Profile() if profile else None
+    # the profile in CPU seconds (process_time): on a loaded machine the wall clock mostly
+    # measures the other jobs
+    prof = cProfile.Profile(time.process_time) if profile else None
     with thread_budget(threads):
         t, cpu = time.perf_counter(), time.process_time()
         if prof is not None:
@@ -93,7 +96,9 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
             "frame0_mm": round(float(acc["per_frame_mm"][0]), 2),
             "margin": info.get("margin"), "load_before": round(load, 2),
             "load_after": round(os.getloadavg()[0], 2), "threads": threads,
-            "hypotheses": info.get("hypotheses")}
+            "hypotheses": info.get("hypotheses"),
+            # the start itself (floats written exactly): two checkouts' starts compare bit for bit
+            "chi": [float(x) for x in chi], "alpha": [float(x) for x in alpha]}
 
 
 def main() -> None:

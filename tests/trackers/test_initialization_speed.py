@@ -127,3 +127,46 @@ def test_the_progress_callback_does_not_change_the_result(walk):
                                        progress=lambda stage, f: None)
     np.testing.assert_array_equal(quiet[0], told[0])
     np.testing.assert_array_equal(quiet[1], told[1])
+
+
+# -- the same start for less overhead (issue 38): the faster path gives the old numbers ------
+def test_the_shape_search_poses_each_particle_as_the_body_model_does(walk, monkeypatch):
+    import mocap.trackers.shape_search as shape_search
+    from mocap.trackers.shape_search import posed_vertices
+
+    body, _ = walk
+    rng = np.random.default_rng(5)
+    chis = np.zeros((9, body.num_dofs))
+    chis[:, :6] = rng.normal(0, 0.3, (9, 6))
+    chis[:, 6:] = rng.uniform(-0.4, 0.4, (9, body.num_dofs - 6))
+    shapes = rng.normal(0, 1.0, (9, body.num_shape))
+    got = posed_vertices(body, chis, shapes)
+    np.testing.assert_array_equal(got, body.pose(chis, shapes).vertices)
+    # one particle alone: its own shaped body posed, to float32 rounding
+    one = body.shaped(shapes[3]).pose(chis[3]).vertices[0]
+    np.testing.assert_allclose(got[3], one, atol=2e-5)
+    # without numba: the body model's own skinning, the same numbers
+    monkeypatch.setattr(shape_search, "HAVE_NUMBA", False)
+    np.testing.assert_array_equal(shape_search.posed_vertices(body, chis, shapes), got)
+
+
+def test_the_start_is_bit_identical_to_the_one_posed_by_the_body_model(walk, monkeypatch):
+    import mocap.trackers.shape_search as shape_search
+
+    body, seq = walk
+    settings = InitSettings(headings=4, hypotheses=1, keep=2, rounds=2, pose_particles=12, pose_layers=3,
+                            shape_particles=10, shape_layers=3, resolution=128, select_resolution=160,
+                            partitioned=True, local_iterations=3)
+
+    def start():
+        return initialize_from_silhouettes(body, seq.rig, seq.masks[0], np.random.default_rng(0), settings)
+
+    chi, alpha, diag = start()
+    monkeypatch.setattr(shape_search, "posed_vertices", lambda b, c, a: b.pose(c, a).vertices)
+    chi_old, alpha_old, diag_old = start()
+    np.testing.assert_array_equal(chi, chi_old)
+    np.testing.assert_array_equal(alpha, alpha_old)
+    assert [h["final_energy"] for h in diag["hypotheses"] if "final_energy" in h] == \
+        [h["final_energy"] for h in diag_old["hypotheses"] if "final_energy" in h]
+    assert np.any(alpha != 0)                     # the shape search ran
+
