@@ -1,5 +1,7 @@
 """mocap track end to end: every tracker for two frames, and its metrics.json."""
 
+import contextlib
+import io
 import json
 import subprocess
 import sys
@@ -17,10 +19,24 @@ REQUIRED = {"tracker", "seed", "frames", "mpjpe_mm", "mpjpe_std_mm", "per_joint_
             "sec_per_frame", "energy_evals_per_frame", "per_frame_mm"}
 
 
-def run_track(tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mocap_cli", "track",
-                           f"hydra.run.dir={tmp_path}", *overrides],
-                          capture_output=True, text=True, cwd=REPO, timeout=600)
+def run_track(tmp_path: Path, *overrides: str, process: bool = False) -> subprocess.CompletedProcess:
+    """``mocap track hydra.run.dir=tmp_path *overrides`` from the checkout's root: in this process
+    (``mocap_cli.main.main``, the entry point's own function: what the command runs, without a new
+    interpreter importing the numeric stack and loading the compiled kernels for each of these
+    runs), or as a process of its own (``process``)."""
+    args = ["track", f"hydra.run.dir={tmp_path}", *overrides]
+    if process:
+        return subprocess.run([sys.executable, "-m", "mocap_cli", *args],
+                              capture_output=True, text=True, cwd=REPO, timeout=600)
+    from mocap_cli.main import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.chdir(REPO), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(args)
+        except SystemExit as exc:           # Hydra's own errors exit
+            code = exc.code if isinstance(exc.code, int) else 1
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 # small budgets per tracker family, and the energy evaluations per frame they imply
@@ -62,7 +78,7 @@ def test_each_tracker_runs_two_frames_and_writes_metrics(tracker, tmp_path):
 
 
 def test_unknown_tracker_fails_at_configuration_time(tmp_path):
-    r = run_track(tmp_path, "tracker=nonexistent")
+    r = run_track(tmp_path, "tracker=nonexistent", process=True)        # the command as a process
     assert r.returncode != 0
     assert "Could not find 'tracker/nonexistent'" in r.stderr
     assert not (tmp_path / "metrics.json").exists()
