@@ -4,27 +4,12 @@ references: forward kinematics (LandmarkSet.positions) and view_costs."""
 import numpy as np
 import pytest
 
-from mocap.body.catalogue import make_landmark_set
-from mocap.cameras import rig_from_config
-from mocap.data.generate import make_synthetic
 from mocap.energy import fallback
-from mocap.energy.markers import MarkerEnergy, MarkerLikelihood, arrange_detections
+from mocap.energy.markers import MarkerEnergy, MarkerLikelihood
 
 
-@pytest.fixture(scope="module")
-def scene(body64):
-    rig = rig_from_config("humaneva")
-    det = {"enabled": True, "detection_rate": 0.8, "false_positive_rate": 0.5, "noise_px": 2.0,
-           "occlusion": False}
-    seq = make_synthetic(body64, rig, motion="walk", frames=2, fps=25, seed=1, masks=False, detections=det)
-    lms = make_landmark_set(body64, "auto", seq.detections.labels)
-    obs = arrange_detections(seq.detections.select(1), lms.names, rig)
-    assert obs.num_candidates >= 2                                   # false positives: several candidates
-    return seq, lms, obs, rig
-
-
-def test_compiled_landmarks_match_forward_kinematics(body64, scene):
-    seq, lms, obs, rig = scene
+def test_compiled_landmarks_match_forward_kinematics(body64, false_positive_scene):
+    seq, lms, obs, rig = false_positive_scene
     shaped = body64.shaped(seq.gt.alpha)
     chi = seq.gt.chi[1] + np.random.default_rng(0).normal(0, 0.3, (50, body64.num_dofs))
     e = MarkerEnergy(lms, shaped, rig, obs, MarkerLikelihood(gate_px=30.0))
@@ -33,8 +18,8 @@ def test_compiled_landmarks_match_forward_kinematics(body64, scene):
 
 @pytest.mark.parametrize("use_confidence", [False, True])
 @pytest.mark.parametrize("gate", [5.0, 30.0])
-def test_compiled_costs_match_the_numpy_likelihood(body64, scene, gate, use_confidence):
-    seq, lms, obs, rig = scene
+def test_compiled_costs_match_the_numpy_likelihood(body64, false_positive_scene, gate, use_confidence):
+    seq, lms, obs, rig = false_positive_scene
     shaped = body64.shaped(seq.gt.alpha)
     rng = np.random.default_rng(1)
     chi = seq.gt.chi[1] + rng.normal(0, 0.05, (80, body64.num_dofs))
@@ -49,12 +34,13 @@ def test_compiled_costs_match_the_numpy_likelihood(body64, scene, gate, use_conf
     np.testing.assert_allclose(a, b, rtol=1e-7, atol=1e-9)
 
 
-def test_without_numba_the_likelihood_falls_back_to_numpy_and_says_so_once(body64, scene, monkeypatch):
+def test_without_numba_the_likelihood_falls_back_to_numpy_and_says_so_once(body64, false_positive_scene,
+                                                                           monkeypatch):
     import warnings
 
     from mocap.energy import markers
 
-    seq, lms, obs, rig = scene
+    seq, lms, obs, rig = false_positive_scene
     shaped = body64.shaped(seq.gt.alpha)
     chi = seq.gt.chi[1] + np.random.default_rng(2).normal(0, 0.05, (20, body64.num_dofs))
     s = MarkerLikelihood(gate_px=30.0)

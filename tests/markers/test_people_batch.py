@@ -74,34 +74,17 @@ def test_skeleton_costs_equal_the_median_of_each_pairs_distances():
             assert got[i, j] == want
 
 
-@pytest.fixture(scope="module")
-def scene(body64):
-    """Detections with false positives (several candidates per landmark and view) on 4 views."""
-    from mocap.body.catalogue import make_landmark_set
-    from mocap.cameras import rig_from_config
-    from mocap.data.generate import make_synthetic
-    from mocap.energy.markers import arrange_detections
-
-    rig = rig_from_config("humaneva")
-    det = {"enabled": True, "detection_rate": 0.8, "false_positive_rate": 0.5, "noise_px": 2.0,
-           "occlusion": False}
-    seq = make_synthetic(body64, rig, motion="walk", frames=2, fps=25, seed=1, masks=False, detections=det)
-    lms = make_landmark_set(body64, "auto", seq.detections.labels)
-    obs = arrange_detections(seq.detections.select(1), lms.names, rig)
-    assert obs.num_candidates >= 2
-    return seq, lms, obs, rig
-
-
 @pytest.mark.parametrize("use_confidence", [False, True])
 @pytest.mark.parametrize("gate", [5.0, 30.0])
-def test_the_people_kernel_gives_each_persons_energy_bit_for_bit(body64, scene, gate, use_confidence):
+def test_the_people_kernel_gives_each_persons_energy_bit_for_bit(body64, false_positive_scene, gate,
+                                                                  use_confidence):
     """Three people: all candidates (several per view), one candidate per view, and views with
     none; particles behind a camera; weak landmarks pulled by coherence for two of them."""
     from mocap.energy.markers import HAVE_NUMBA, MarkerEnergy, MarkerLikelihood, MarkerObservation
 
     if not HAVE_NUMBA:
         pytest.skip("numba is not installed")
-    seq, lms, obs, rig = scene
+    seq, lms, obs, rig = false_positive_scene
     rng = np.random.default_rng(5)
     one = MarkerObservation(obs.xy[:, :, :1], obs.valid[:, :, :1], obs.confidence[:, :, :1])
     valid = obs.valid & (rng.random(obs.valid.shape) > 0.3)
