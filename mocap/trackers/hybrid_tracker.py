@@ -183,17 +183,8 @@ class HybridTracker(LocalTracker):
         fitted = np.stack([self.local_step(frame, c, extra=self.keypoint_lines(obs))[0] for c in starts])
         e = self.two_cue_energy(frame, obs, np.vstack([chi[None], fitted]))
         chi = np.vstack([chi[None], fitted])[int(np.argmin(e))]
-        for _, limbs in self.chains:
-            flagged = np.zeros(self.body.num_joints, bool)
-            flagged[limbs] = True
-            free = self.detector.free_dofs(LimbCheck(flagged, [], {}))
-            found, _, _ = self.search(frame, chi, chi, free, obs)
-            e = self.two_cue_energy(frame, obs, np.stack([chi, found]))
-            if e[1] < e[0]:
-                chi = found
-        local, _ = self.local_step(frame, chi, extra=self.keypoint_lines(obs))
-        e = self.two_cue_energy(frame, obs, np.stack([chi, local]))
-        chi, after = (local, float(e[1])) if e[1] < e[0] else (chi, float(e[0]))
+        chi, after, _ = self.search_chains(frame, chi, lambda poses: self.two_cue_energy(frame, obs, poses),
+                                           obs, extra=self.keypoint_lines(obs))
         report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
         return chi, np.asarray(self.shaped.alpha, np.float64), report
 
@@ -210,21 +201,32 @@ class HybridTracker(LocalTracker):
             return self.sil.per_view(poses, target)[:, target.valid].mean(axis=1)
 
         before = float(e_s(chi[None])[0])
+        chi, after, kept = self.search_chains(frame, chi, e_s)
+        return chi, np.asarray(alpha), {"start_search": {"energy_before": before, "energy_after": after,
+                                                         "chains_kept": kept}}
+
+    def search_chains(self, frame: Frame, chi: np.ndarray, energy, obs=None, extra=None
+                      ) -> tuple[np.ndarray, float, list[str]]:
+        """Every limb chain of the pose ``chi`` (D,) searched in turn as a misaligned limb is
+        (:meth:`search`, with the keypoint observation ``obs`` where given), its pose kept where
+        ``energy`` ((P, D) -> (P,)) falls, then the local optimiser (with the ``extra``
+        correspondences), kept where it falls too: the starts' refinement of both cues.
+        Returns (pose, its energy, the root joints of the chains kept)."""
         kept = []
         for root, limbs in self.chains:
             flagged = np.zeros(self.body.num_joints, bool)
             flagged[limbs] = True
             free = self.detector.free_dofs(LimbCheck(flagged, [], {}))
-            found, _, _ = self.search(frame, chi, chi, free)
-            e = e_s(np.stack([chi, found]))
+            found, _, _ = self.search(frame, chi, chi, free, obs)
+            e = energy(np.stack([chi, found]))
             if e[1] < e[0]:
                 chi = found
                 kept.append(self.body.joint_names[root])
-        local, _ = self.local_step(frame, chi)
-        e = e_s(np.stack([chi, local]))
-        chi, after = (local, float(e[1])) if e[1] < e[0] else (chi, float(e[0]))
-        return chi, np.asarray(alpha), {"start_search": {"energy_before": before, "energy_after": after,
-                                                         "chains_kept": kept}}
+        local, _ = self.local_step(frame, chi, extra=extra)
+        e = energy(np.stack([chi, local]))
+        if e[1] < e[0]:
+            return local, float(e[1]), kept
+        return chi, float(e[0]), kept
 
     def two_cue_energy(self, frame: Frame, obs, chi: np.ndarray) -> np.ndarray:
         """(P, D) -> (P,): the frame's mean per-view E_S plus the scaled marker likelihood."""
