@@ -39,6 +39,7 @@ from mocap.render import get_rasterizer
 
 if HAVE_NUMBA:
     from mocap.local.nearest import bucket_grid, nearest_on_grid
+    from mocap.render._compiled import KeptMasks
 
 
 @dataclass(frozen=True)
@@ -165,37 +166,51 @@ if HAVE_NUMBA:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _pixel_boxes(px, h, w, out):
-        """out[c] = (x, y, width, height): the pixel box of view c's finite points px[c] (V, 2)
-        (grown to whole pixels, clipped to the h x w image; width 0: none inside). It holds
-        every pixel a mesh drawn from these points covers (pixel centres inside its triangles)."""
-        for c in range(px.shape[0]):
-            lo_x = lo_y = np.inf
-            hi_x = hi_y = -np.inf
-            for v in range(px.shape[1]):
-                x = px[c, v, 0]
-                y = px[c, v, 1]
-                if np.isfinite(x) and np.isfinite(y):
-                    lo_x, hi_x = min(lo_x, x), max(hi_x, x)
-                    lo_y, hi_y = min(lo_y, y), max(hi_y, y)
-            x0 = max(np.floor(lo_x), 0.0)
-            y0 = max(np.floor(lo_y), 0.0)
-            x1 = min(np.ceil(hi_x), w - 1.0)
-            y1 = min(np.ceil(hi_y), h - 1.0)
-            if not (x0 <= x1 and y0 <= y1):
-                out[c, 0] = out[c, 1] = out[c, 2] = out[c, 3] = 0
+    def _outline(m, r0, r1, c0, c1):
+        """The outline of mask m (h, w) bool, False outside the box rows [r0, r1), columns
+        [c0, c1): its pixels with a 3 x 3 neighbour outside it, beyond the image's border
+        counting as inside (cv2.erode's default), on that box (r1 - r0, c1 - c0) uint8 0 / 1.
+        The erosion separably, across 3 columns, then across 3 rows (loops over slices from 0,
+        which LLVM vectorises)."""
+        h, w = m.shape
+        bh, bw = r1 - r0, c1 - c0
+        img = m.view(np.uint8)
+        across = np.ones((bh + 2, bw), np.uint8)      # rows r0 - 1 .. r1; beyond the image: 1
+        a, b = max(c0, 1), min(c1, w - 1)             # columns with both neighbours in the image
+        for i in range(bh + 2):
+            r = r0 - 1 + i
+            if r < 0 or r >= h:
                 continue
-            out[c, 0], out[c, 1] = int(x0), int(y0)
-            out[c, 2], out[c, 3] = int(x1 - x0) + 1, int(y1 - y0) + 1
+            src = img[r]
+            left, mid, right = src[a - 1:b - 1], src[a:b], src[a + 1:b + 1]
+            dst = across[i, a - c0:b - c0]
+            for j in range(b - a):
+                dst[j] = left[j] & mid[j] & right[j]
+            if c0 == 0:                               # column -1 beyond the image: inside
+                across[i, 0] = src[0] & src[min(1, w - 1)]
+            if c1 == w and bw > 0 and (w > 1 or c0 != 0):
+                across[i, bw - 1] = src[w - 1] & src[max(w - 2, 0)]
+        out = np.empty((bh, bw), np.uint8)
+        for i in range(bh):
+            o, here = out[i], img[r0 + i, c0:c1]
+            up, at, down = across[i], across[i + 1], across[i + 2]
+            for j in range(bw):
+                o[j] = here[j] & ((up[j] & at[j] & down[j]) ^ 1)
+        return out
 
     @njit(cache=True)
-    def _visible_marks(mark, px, bands, stride, out, count):
-        """Per view c: every ``stride``-th marked vertex (mark (C, V) bool) whose pixel px[c]
-        (V, 2) lies in the image and, rounded half to even, on the band bands[c] (h, w) uint8
-        (:func:`outline_band`) -> out[c, :count[c]] (ids in increasing order)."""
+    def _visible_on_masks(mark, px, masks, boxes, offsets, stride, out, count):
+        """The numpy path's visibility (the band of :func:`outline_band`) without drawing the
+        band: per view c, every ``stride``-th marked vertex (mark (C, V) bool) whose pixel px[c]
+        (V, 2), in the image and rounded half to even, has within ``offsets`` ((K, 2) (dy, dx):
+        the tolerance's structuring element about its anchor) a pixel of the outline
+        (:func:`_outline`) of masks[c] (h, w) bool, False outside boxes[c] (row0, row1, col0,
+        col1) -> out[c, :count[c]]."""
         C, V = mark.shape
-        h, w = bands.shape[1], bands.shape[2]
+        h, w = masks.shape[1], masks.shape[2]
         for c in range(C):
+            r0, r1, c0, c1 = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
+            line = _outline(masks[c], r0, r1, c0, c1)
             n = 0
             k = 0
             for v in range(V):
@@ -208,9 +223,13 @@ if HAVE_NUMBA:
                 y = px[c, v, 1]
                 if not (x >= 0 and x <= w - 1 and y >= 0 and y <= h - 1):
                     continue
-                if bands[c, int(np.rint(y)), int(np.rint(x))] > 0:
-                    out[c, n] = v
-                    n += 1
+                u, r = int(np.rint(x)) - c0, int(np.rint(y)) - r0
+                for t in range(offsets.shape[0]):
+                    oy, ox = r + offsets[t, 0], u + offsets[t, 1]
+                    if oy >= 0 and oy < r1 - r0 and ox >= 0 and ox < c1 - c0 and line[oy, ox]:
+                        out[c, n] = v
+                        n += 1
+                        break
             count[c] = n
 
 
@@ -363,6 +382,12 @@ class ContourMatcher:
         r = int(np.ceil(visibility_tolerance_px))
         self.kernel3 = np.ones((3, 3), np.uint8)
         self.kernel_tol = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        # the tolerance's offsets (dy, dx) about its anchor, nearest first (the search stops
+        # at the first outline pixel)
+        off = np.argwhere(self.kernel_tol > 0) - np.array(self.kernel_tol.shape) // 2
+        self.tol_offsets = np.ascontiguousarray(off[np.argsort((off**2).sum(1), kind="stable")],
+                                                np.int64)
+        self.kept = None              # the model masks kept between calls (compiled path)
         self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
         self.max_distance_px = max_distance * float(rig.sizes[0][1])
         self.stride, self.observed_stride = stride, observed_stride
@@ -378,6 +403,23 @@ class ContourMatcher:
         _pixels_in_two_rigs(np.ascontiguousarray(cam_xyz), self.two_K, self.rig.dist.astype(np.float64),
                             bool(np.any(self.rig.dist)), self.two_skew, out)
         return out[0], out[1], cam_xyz[:, 2, :]
+
+    def model_masks(self, px_small: np.ndarray, depth_small: np.ndarray) -> np.ndarray:
+        """The model's silhouettes (C, h, w) bool in the visibility rig from its pixels (C, V, 2)
+        and depths (C, V) (faces with a vertex at depth <= 0.05 culled). Compiled: drawn into
+        masks kept between calls (:class:`~mocap.render._compiled.KeptMasks`: only the last
+        call's boxes cleared and scanned; the array returned is overwritten by the next call);
+        the rasterizer's checks where a pixel is not finite."""
+        h, w = self.small_size
+        px_small = np.asarray(px_small, np.float64)
+        if not (HAVE_NUMBA and self.raster.compiled and np.isfinite(px_small).all()):
+            return self.raster(px_small, h, w, depth_small, near=0.05)
+        if self.kept is None or self.kept.masks.shape[0] != len(px_small):
+            self.kept = KeptMasks(len(px_small), h, w)
+        faces, edges = self.raster.kernel_arrays
+        return self.kept.draw(np.ascontiguousarray(px_small[..., 0]),
+                              np.ascontiguousarray(px_small[..., 1]),
+                              np.ascontiguousarray(depth_small > 0.05), faces, edges)
 
     def contour_marks(self, verts: np.ndarray, centers: np.ndarray) -> np.ndarray:
         """(C, V) bool: the vertices on the contour generator seen from each camera centre
@@ -412,19 +454,21 @@ class ContourMatcher:
         """Per view the ids of the contour-generator vertices (every ``stride``-th) that are
         visible: in the image, and projecting (px_small (C, V, 2), rounded) onto the outline
         band of the model's own silhouette (model_masks (C, h, w)). Compiled: one pass over all
-        views (:func:`_visible_marks`); otherwise :func:`outline_band` per view."""
+        views that looks for an outline pixel around each vertex (:func:`_visible_on_masks`, no
+        band image); otherwise :func:`outline_band` per view."""
         h, w = self.small_size
         if HAVE_NUMBA:
             mark = self.contour_marks(verts, self.rig.centers)
-            px_small = np.ascontiguousarray(px_small, np.float64)
-            boxes = np.zeros((len(mark), 4), np.int64)
-            _pixel_boxes(px_small, h, w, boxes)
-            bands = np.zeros(model_masks.shape, np.uint8)
-            for c in range(len(mark)):
-                outline_band(model_masks[c], self.kernel3, self.kernel_tol, tuple(boxes[c]), bands[c])
             out = np.empty(mark.shape, np.int64)
             count = np.zeros(len(mark), np.int64)
-            _visible_marks(mark, px_small, bands, self.stride, out, count)
+            if self.kept is not None and model_masks is self.kept.masks:
+                boxes = self.kept.boxes
+            else:
+                boxes = np.zeros((len(mark), 4), np.int64)
+                boxes[:, 1], boxes[:, 3] = h, w
+            _visible_on_masks(mark, np.ascontiguousarray(px_small, np.float64),
+                              np.ascontiguousarray(model_masks), boxes, self.tol_offsets,
+                              self.stride, out, count)
             return [out[c, :count[c]] for c in range(len(mark))]
         visible = []
         for c, vid in enumerate(self.contour_vertices(verts, self.rig.centers)):
@@ -511,7 +555,7 @@ class ContourMatcher:
         # camera coordinates once: the visibility rig (rescaled) shares R, t with the rig
         cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
         px_small, px, depth_small = self.pixels(cam_xyz)
-        model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
+        model_masks = self.model_masks(px_small, depth_small)
         visible = self.visible_contour_vertices(verts, px_small, model_masks)
         vid, oid, counts = self.pairs(px, visible, observed)
         empty = [self.rig.names[c] for c, t in enumerate(observed.trees) if t is None]
