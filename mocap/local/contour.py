@@ -105,12 +105,13 @@ if HAVE_NUMBA:
 
     @njit(cache=True)
     def _contour_marks(verts, faces, centers, edge_faces, edge_vertices, mark):
-        """mark[c, v] = True for the vertices of edges whose two faces face opposite ways
+        """mark[c, v] = True (False elsewhere) for the vertices of edges whose two faces face opposite ways
         from centre c: the numpy path of :meth:`ContourMatcher.contour_vertices` in one
-        pass, with its arithmetic (n . centroid - n . centre, each a 3-term sum in order)."""
+        pass, with its arithmetic (n . centroid - n . centre, each a 3-term sum in order); at
+        most 64 views (:meth:`ContourMatcher.contour_marks` splits more)."""
         F = faces.shape[0]
         C = centers.shape[0]
-        normal = np.empty((F, 3))
+        normal = np.empty((3, F))       # rows: the views' loop reads each one in order
         offset = np.empty(F)
         for f in range(F):
             a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
@@ -122,17 +123,28 @@ if HAVE_NUMBA:
             cx = (verts[a, 0] + verts[b, 0] + verts[c, 0]) / 3.0
             cy = (verts[a, 1] + verts[b, 1] + verts[c, 1]) / 3.0
             cz = (verts[a, 2] + verts[b, 2] + verts[c, 2]) / 3.0
-            normal[f, 0], normal[f, 1], normal[f, 2] = nx, ny, nz
+            normal[0, f], normal[1, f], normal[2, f] = nx, ny, nz
             offset[f] = nx * cx + ny * cy + nz * cz
-        facing = np.empty(F, np.bool_)
+        # the views' facing signs as bits of one word per face (C <= 64), so that one pass
+        # over the edges serves every view: the edges whose faces differ in some view's bit
+        bits = np.zeros(F, np.uint64)
+        n0, n1, n2 = normal[0], normal[1], normal[2]
         for k in range(C):
             px, py, pz = centers[k, 0], centers[k, 1], centers[k, 2]
-            for f in range(F):
-                facing[f] = offset[f] - (px * normal[f, 0] + py * normal[f, 1] + pz * normal[f, 2]) < 0
-            for e in range(edge_faces.shape[0]):
-                if facing[edge_faces[e, 0]] != facing[edge_faces[e, 1]]:
-                    mark[k, edge_vertices[e, 0]] = True
-                    mark[k, edge_vertices[e, 1]] = True
+            kk = np.uint64(k)
+            for f in range(F):           # branch-free: vectorised
+                below = offset[f] - (px * n0[f] + py * n1[f] + pz * n2[f]) < 0
+                bits[f] |= np.uint64(below) << kk
+        vbits = np.zeros(verts.shape[0], np.uint64)     # per vertex: the views it is marked in
+        for e in range(edge_faces.shape[0]):            # branch-free (~half the edges cross)
+            x = bits[edge_faces[e, 0]] ^ bits[edge_faces[e, 1]]
+            vbits[edge_vertices[e, 0]] |= x
+            vbits[edge_vertices[e, 1]] |= x
+        for k in range(C):
+            kk = np.uint64(k)
+            row = mark[k]
+            for v in range(vbits.shape[0]):
+                row[v] = (vbits[v] >> kk) & np.uint64(1)
 
 
 if HAVE_NUMBA:
@@ -425,9 +437,11 @@ class ContourMatcher:
         """(C, V) bool: the vertices on the contour generator seen from each camera centre
         (C, 3) (compiled: :func:`_contour_marks`)."""
         mark = np.zeros((len(centers), len(verts)), bool)
-        _contour_marks(np.ascontiguousarray(verts, np.float64), self.faces64,
-                       np.ascontiguousarray(centers, np.float64), self.edge_faces,
-                       self.edge_vertices, mark)
+        verts = np.ascontiguousarray(verts, np.float64)
+        centers = np.ascontiguousarray(centers, np.float64)
+        for s in range(0, len(centers), 64):
+            _contour_marks(verts, self.faces64, centers[s:s + 64], self.edge_faces,
+                           self.edge_vertices, mark[s:s + 64])
         return mark
 
     def contour_vertices(self, verts: np.ndarray, centers: np.ndarray) -> list[np.ndarray]:

@@ -140,8 +140,9 @@ def test_shape_initialisation_is_closer_to_the_truth_than_the_mean_shape(body):
 
 @pytest.mark.parametrize("dtype", ["body", "body64"])
 def test_compiled_contour_generator_equals_the_numpy_one(dtype, request, monkeypatch):
-    """The compiled contour generator (one pass over faces and edges per view) gives the numpy
-    path's vertex sets, view for view, on random poses and shapes."""
+    """The compiled contour generator (the views' facing signs as bits of a word per face, one
+    pass over the edges) gives the numpy path's vertex sets, view for view, on random poses
+    and shapes, for a rig's 6 views and for 70 centres (two passes of at most 64)."""
     from mocap.local import contour
 
     pytest.importorskip("numba")
@@ -155,13 +156,17 @@ def test_compiled_contour_generator_equals_the_numpy_one(dtype, request, monkeyp
         chi[:3] = rng.normal(0, 0.2, 3)
         chi = np.clip(chi, b.limits[:, 0], b.limits[:, 1]).astype(b.dtype)
         verts = b.shaped(rng.normal(size=b.num_shape)).pose(chi).vertices[0]
-        compiled = matcher.contour_vertices(verts, rig.centers)
-        monkeypatch.setattr(contour, "HAVE_NUMBA", False)
-        reference = matcher.contour_vertices(verts, rig.centers)
-        monkeypatch.undo()
-        assert all(len(a) > 50 for a in compiled)
-        for a, r in zip(compiled, reference, strict=True):
-            np.testing.assert_array_equal(a, r)
+        # the rig's centres, and 70 around the body (more than the kernel's 64 views a pass)
+        around = rng.normal(0, 1, (70, 3))
+        around = 3.5 * around / np.linalg.norm(around, axis=1, keepdims=True) + [0, 0, 0.9]
+        for centers in (rig.centers, around):
+            compiled = matcher.contour_vertices(verts, centers)
+            monkeypatch.setattr(contour, "HAVE_NUMBA", False)
+            reference = matcher.contour_vertices(verts, centers)
+            monkeypatch.undo()
+            assert all(len(a) > 50 for a in compiled)
+            for a, r in zip(compiled, reference, strict=True):
+                np.testing.assert_array_equal(a, r)
 
 
 def test_outline_band_on_the_masks_box_is_the_whole_image_computation():
