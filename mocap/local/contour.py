@@ -93,9 +93,16 @@ def observed_contours(masks: np.ndarray) -> ObservedContours:
     """Outline pixels of observed silhouettes (C, H, W) bool, once per frame."""
     pts, trees = [], []
     for m in masks:
-        contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
-        p = (np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64) if contours
-             else np.zeros((0, 2)))
+        p = np.zeros((0, 2))
+        u8 = np.ascontiguousarray(m, bool).view(np.uint8)
+        x, y, w, h = cv2.boundingRect(u8)
+        if w:      # on the mask's box grown by a pixel (clipped): the same contours (tested)
+            x0, y0 = max(x - 1, 0), max(y - 1, 0)
+            crop = u8[y0:min(y + h + 1, u8.shape[0]), x0:min(x + w + 1, u8.shape[1])].copy()
+            contours, _ = cv2.findContours(crop, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE,
+                                           offset=(x0, y0))
+            if contours:
+                p = np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64)
         pts.append(p)
         trees.append(NearestPoints(p) if len(p) else None)
     return ObservedContours(pts, trees)
@@ -104,11 +111,11 @@ def observed_contours(masks: np.ndarray) -> ObservedContours:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _contour_marks(verts, faces, centers, edge_faces, edge_vertices, mark):
-        """mark[c, v] = True (False elsewhere) for the vertices of edges whose two faces face opposite ways
-        from centre c: the numpy path of :meth:`ContourMatcher.contour_vertices` in one
+    def _contour_marks(verts, faces, centers, edge_faces, edge_vertices, ids, counts):
+        """ids[c, :counts[c]] (increasing) = the vertices of edges whose two faces face opposite
+        ways from centre c: the numpy path of :meth:`ContourMatcher.contour_vertices` in one
         pass, with its arithmetic (n . centroid - n . centre, each a 3-term sum in order); at
-        most 64 views (:meth:`ContourMatcher.contour_marks` splits more)."""
+        most 64 views (:meth:`ContourMatcher.contour_ids` splits more)."""
         F = faces.shape[0]
         C = centers.shape[0]
         normal = np.empty((3, F))       # rows: the views' loop reads each one in order
@@ -140,11 +147,14 @@ if HAVE_NUMBA:
             x = bits[edge_faces[e, 0]] ^ bits[edge_faces[e, 1]]
             vbits[edge_vertices[e, 0]] |= x
             vbits[edge_vertices[e, 1]] |= x
-        for k in range(C):
+        for k in range(C):               # compacted without a branch
             kk = np.uint64(k)
-            row = mark[k]
+            row = ids[k]
+            n = 0
             for v in range(vbits.shape[0]):
-                row[v] = (vbits[v] >> kk) & np.uint64(1)
+                row[n] = v
+                n += (vbits[v] >> kk) & np.uint64(1)
+            counts[k] = n
 
 
 if HAVE_NUMBA:
@@ -178,10 +188,11 @@ if HAVE_NUMBA:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _outline(m, r0, r1, c0, c1):
+    def _outline(m, r0, r1, c0, c1, pad):
         """The outline of mask m (h, w) bool, False outside the box rows [r0, r1), columns
         [c0, c1): its pixels with a 3 x 3 neighbour outside it, beyond the image's border
-        counting as inside (cv2.erode's default), on that box (r1 - r0, c1 - c0) uint8 0 / 1.
+        counting as inside (cv2.erode's default), on that box grown by ``pad`` on every side
+        (r1 - r0 + 2 pad, c1 - c0 + 2 pad) uint8 0 / 1 (0 outside the box).
         The erosion separably, across 3 columns, then across 3 rows (loops over slices from 0,
         which LLVM vectorises)."""
         h, w = m.shape
@@ -202,48 +213,57 @@ if HAVE_NUMBA:
                 across[i, 0] = src[0] & src[min(1, w - 1)]
             if c1 == w and bw > 0 and (w > 1 or c0 != 0):
                 across[i, bw - 1] = src[w - 1] & src[max(w - 2, 0)]
-        out = np.empty((bh, bw), np.uint8)
+        out = np.zeros((bh + 2 * pad, bw + 2 * pad), np.uint8)
         for i in range(bh):
-            o, here = out[i], img[r0 + i, c0:c1]
+            o, here = out[pad + i, pad:pad + bw], img[r0 + i, c0:c1]
             up, at, down = across[i], across[i + 1], across[i + 2]
             for j in range(bw):
                 o[j] = here[j] & ((up[j] & at[j] & down[j]) ^ 1)
         return out
 
     @njit(cache=True)
-    def _visible_on_masks(mark, px, masks, boxes, offsets, stride, out, count):
+    def _visible_on_masks(ids, marked, px, masks, boxes, offsets, stride, out, count):
         """The numpy path's visibility (the band of :func:`outline_band`) without drawing the
-        band: per view c, every ``stride``-th marked vertex (mark (C, V) bool) whose pixel px[c]
-        (V, 2), in the image and rounded half to even, has within ``offsets`` ((K, 2) (dy, dx):
-        the tolerance's structuring element about its anchor) a pixel of the outline
-        (:func:`_outline`) of masks[c] (h, w) bool, False outside boxes[c] (row0, row1, col0,
-        col1) -> out[c, :count[c]]."""
-        C, V = mark.shape
+        band: per view c, every ``stride``-th marked vertex (ids[c, :marked[c]]) whose pixel
+        px[c] (V, 2), in the image and rounded half to even, has within ``offsets`` ((K, 2)
+        (dy, dx): the tolerance's structuring element about its anchor) a pixel of the outline
+        (:func:`_outline`, on the box grown by the element's radius) of masks[c] (h, w) bool,
+        False outside boxes[c] (row0, row1, col0, col1) -> out[c, :count[c]]."""
+        C = ids.shape[0]
         h, w = masks.shape[1], masks.shape[2]
+        R = 0
+        for t in range(offsets.shape[0]):
+            R = max(R, abs(offsets[t, 0]), abs(offsets[t, 1]))
         for c in range(C):
             r0, r1, c0, c1 = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
-            line = _outline(masks[c], r0, r1, c0, c1)
+            line = _outline(masks[c], r0, r1, c0, c1, R)
+            # a pixel more than R outside the box has no outline pixel within the element
+            gh, gw = r1 - r0 + R, c1 - c0 + R
             n = 0
-            k = 0
-            for v in range(V):
-                if not mark[c, v]:
-                    continue
-                k += 1
-                if (k - 1) % stride != 0:
-                    continue
+            for i in range(0, marked[c], stride):
+                v = ids[c, i]
                 x = px[c, v, 0]
                 y = px[c, v, 1]
                 if not (x >= 0 and x <= w - 1 and y >= 0 and y <= h - 1):
                     continue
-                u, r = int(np.rint(x)) - c0, int(np.rint(y)) - r0
+                u, r = int(np.rint(x)) - c0 + R, int(np.rint(y)) - r0 + R
+                if r < R or r >= gh or u < R or u >= gw:
+                    if r < 0 or r >= gh + R or u < 0 or u >= gw + R:
+                        continue
+                    # near the padded edge: the element may reach outside the padding
+                    for t in range(offsets.shape[0]):
+                        oy, ox = r + offsets[t, 0], u + offsets[t, 1]
+                        if oy >= 0 and oy < gh + R and ox >= 0 and ox < gw + R and line[oy, ox]:
+                            out[c, n] = v
+                            n += 1
+                            break
+                    continue
                 for t in range(offsets.shape[0]):
-                    oy, ox = r + offsets[t, 0], u + offsets[t, 1]
-                    if oy >= 0 and oy < r1 - r0 and ox >= 0 and ox < c1 - c0 and line[oy, ox]:
+                    if line[r + offsets[t, 0], u + offsets[t, 1]]:
                         out[c, n] = v
                         n += 1
                         break
             count[c] = n
-
 
 if HAVE_NUMBA:
 
@@ -433,21 +453,24 @@ class ContourMatcher:
                               np.ascontiguousarray(px_small[..., 1]),
                               np.ascontiguousarray(depth_small > 0.05), faces, edges)
 
-    def contour_marks(self, verts: np.ndarray, centers: np.ndarray) -> np.ndarray:
-        """(C, V) bool: the vertices on the contour generator seen from each camera centre
-        (C, 3) (compiled: :func:`_contour_marks`)."""
-        mark = np.zeros((len(centers), len(verts)), bool)
+    def contour_ids(self, verts: np.ndarray, centers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices on the contour generator seen from each camera centre (C, 3): ids
+        (C, V), row c's first counts[c] (C,) in increasing order (compiled:
+        :func:`_contour_marks`)."""
+        ids = np.empty((len(centers), len(verts)), np.int64)
+        counts = np.zeros(len(centers), np.int64)
         verts = np.ascontiguousarray(verts, np.float64)
         centers = np.ascontiguousarray(centers, np.float64)
         for s in range(0, len(centers), 64):
             _contour_marks(verts, self.faces64, centers[s:s + 64], self.edge_faces,
-                           self.edge_vertices, mark[s:s + 64])
-        return mark
+                           self.edge_vertices, ids[s:s + 64], counts[s:s + 64])
+        return ids, counts
 
     def contour_vertices(self, verts: np.ndarray, centers: np.ndarray) -> list[np.ndarray]:
         """Vertex ids on the contour generator seen from each camera centre (C, 3)."""
         if HAVE_NUMBA:
-            return [np.flatnonzero(m) for m in self.contour_marks(verts, centers)]
+            ids, counts = self.contour_ids(verts, centers)
+            return [ids[c, :counts[c]].copy() for c in range(len(centers))]
         tri = verts[self.body.faces]
         normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         centroids = tri.mean(axis=1)
@@ -472,18 +495,18 @@ class ContourMatcher:
         band image); otherwise :func:`outline_band` per view."""
         h, w = self.small_size
         if HAVE_NUMBA:
-            mark = self.contour_marks(verts, self.rig.centers)
-            out = np.empty(mark.shape, np.int64)
-            count = np.zeros(len(mark), np.int64)
+            ids, marked = self.contour_ids(verts, self.rig.centers)
+            out = np.empty(ids.shape, np.int64)
+            count = np.zeros(len(ids), np.int64)
             if self.kept is not None and model_masks is self.kept.masks:
                 boxes = self.kept.boxes
             else:
-                boxes = np.zeros((len(mark), 4), np.int64)
+                boxes = np.zeros((len(ids), 4), np.int64)
                 boxes[:, 1], boxes[:, 3] = h, w
-            _visible_on_masks(mark, np.ascontiguousarray(px_small, np.float64),
+            _visible_on_masks(ids, marked, np.ascontiguousarray(px_small, np.float64),
                               np.ascontiguousarray(model_masks), boxes, self.tol_offsets,
                               self.stride, out, count)
-            return [out[c, :count[c]] for c in range(len(mark))]
+            return [out[c, :count[c]] for c in range(len(ids))]
         visible = []
         for c, vid in enumerate(self.contour_vertices(verts, self.rig.centers)):
             vid = vid[:: self.stride]

@@ -322,13 +322,17 @@ def test_visibility_without_the_band_image_equals_the_band_lookup():
             for c, m in enumerate(masks):                 # the mask's box (the kept masks' case)
                 x, y, bw, bh = cv2.boundingRect(m.astype(np.uint8))
                 boxes[c] = y, y + bh, x, x + bw
+            ids = np.zeros(mark.shape, np.int64)
+            marked = mark.sum(axis=1)
+            for c in range(len(masks)):
+                ids[c, :marked[c]] = np.flatnonzero(mark[c])
             out = np.empty(mark.shape, np.int64)
             count = np.zeros(len(masks), np.int64)
-            contour._visible_on_masks(mark, pxs, stack, boxes, offsets, stride, out, count)
+            contour._visible_on_masks(ids, marked, pxs, stack, boxes, offsets, stride, out, count)
             whole = np.zeros_like(boxes)
             whole[:, 1], whole[:, 3] = h, w
             out2, count2 = np.empty(mark.shape, np.int64), np.zeros(len(masks), np.int64)
-            contour._visible_on_masks(mark, pxs, stack, whole, offsets, stride, out2, count2)
+            contour._visible_on_masks(ids, marked, pxs, stack, whole, offsets, stride, out2, count2)
             for c, m in enumerate(masks):
                 band = contour.outline_band(m, k3, kt)
                 vid = np.flatnonzero(mark[c])[::stride]
@@ -379,3 +383,20 @@ def test_masks_kept_between_calls_equal_fresh_rasterizer_masks(body, walk):
         touching += int(want[:, :, [0, -1]].any() or want[:, [0, -1], :].any())
         assert want.any()
     assert touching >= 2                             # the moved body crosses an image border
+
+
+def test_observed_contours_on_the_masks_box_are_the_whole_image_ones():
+    """The observed outline traced on each mask's box grown by a pixel is cv2.findContours on
+    the whole image, point for point and in the same order: blobs inside and over every
+    border, with holes, a single pixel, a border row and column, the full image, an empty one."""
+    import cv2
+
+    rng = np.random.default_rng(12)
+    masks = np.stack(_blob_masks(90, 120, rng, count=20))
+    got = observed_contours(masks)
+    for m, p in zip(masks, got.points, strict=True):
+        contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+        want = (np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64) if contours
+                else np.zeros((0, 2)))
+        np.testing.assert_array_equal(p, want)
+    assert sum(len(p) == 0 for p in got.points) == 1 and got.trees[0] is None
