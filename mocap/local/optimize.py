@@ -9,6 +9,8 @@ import numpy as np
 from mocap.body.jacobian import dof_frames
 from mocap.body.model import ShapedBody
 from mocap.local import solver
+from mocap.local.normal_equations import compiled_available
+from mocap.local.posing import dof_frames_compiled
 from mocap.local.solver import PointLines, gauss_newton_step, merge
 
 Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]
@@ -42,7 +44,10 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
             corr = merge([corr, extra(chi)])
         diag["correspondences"].append(len(corr))
         diag.setdefault("per_iteration", []).append(info)
-        w, q, _ = dof_frames(body, shaped.axes, shaped.rest_joints, chi)
+        if solver.LEGACY or not compiled_available():
+            w, q, _ = dof_frames(body, shaped.axes, shaped.rest_joints, chi)
+        else:                            # the same frames compiled (mocap.local.posing)
+            w, q = dof_frames_compiled(body, shaped.axes, shaped.rest_joints, chi)
         step = gauss_newton_step(body, chi, corr, w, q, damping=damping,
                                  min_correspondences=min_correspondences, free=free)
         diag["iterations"] = it + 1
