@@ -495,18 +495,8 @@ class ContourMatcher:
         band image); otherwise :func:`outline_band` per view."""
         h, w = self.small_size
         if HAVE_NUMBA:
-            ids, marked = self.contour_ids(verts, self.rig.centers)
-            out = np.empty(ids.shape, np.int64)
-            count = np.zeros(len(ids), np.int64)
-            if self.kept is not None and model_masks is self.kept.masks:
-                boxes = self.kept.boxes
-            else:
-                boxes = np.zeros((len(ids), 4), np.int64)
-                boxes[:, 1], boxes[:, 3] = h, w
-            _visible_on_masks(ids, marked, np.ascontiguousarray(px_small, np.float64),
-                              np.ascontiguousarray(model_masks), boxes, self.tol_offsets,
-                              self.stride, out, count)
-            return [out[c, :count[c]] for c in range(len(ids))]
+            out, count = self._visible_compiled(verts, px_small, model_masks)
+            return [out[c, :count[c]] for c in range(len(out))]
         visible = []
         for c, vid in enumerate(self.contour_vertices(verts, self.rig.centers)):
             vid = vid[:: self.stride]
@@ -517,6 +507,24 @@ class ContourMatcher:
             ui, vi = np.round(ps).astype(int).T
             visible.append(vid[near_outline[vi, ui] > 0])
         return visible
+
+    def _visible_compiled(self, verts: np.ndarray, px_small: np.ndarray, model_masks: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`visible_contour_vertices` compiled, as arrays: ids (C, V), row c's first
+        count[c] (C,) visible."""
+        h, w = self.small_size
+        ids, marked = self.contour_ids(verts, self.rig.centers)
+        out = np.empty(ids.shape, np.int64)
+        count = np.zeros(len(ids), np.int64)
+        if self.kept is not None and model_masks is self.kept.masks:
+            boxes = self.kept.boxes
+        else:
+            boxes = np.zeros((len(ids), 4), np.int64)
+            boxes[:, 1], boxes[:, 3] = h, w
+        _visible_on_masks(ids, marked, np.ascontiguousarray(px_small, np.float64),
+                          np.ascontiguousarray(model_masks), boxes, self.tol_offsets,
+                          self.stride, out, count)
+        return out, count
 
     def observed_lines(self, observed: ObservedContours) -> tuple[np.ndarray, np.ndarray]:
         """Plücker lines (directions, moments; (P, 3) each) of every observed contour point,
@@ -548,19 +556,11 @@ class ContourMatcher:
         ids (N,) (into the views' points one after the other) and the count per view.
         Compiled: one pass over all views (:func:`_pair_views`)."""
         if HAVE_NUMBA:
-            xs, ys, ids, starts, points, fpar, ipar = packed_grids(observed)
             count = np.array([len(v) for v in visible], np.int64)
             vis = np.zeros((len(visible), max(1, int(count.max()))), np.int64)
             for c, v in enumerate(visible):
                 vis[c, :len(v)] = v
-            size = int(sum(count[c] + -(-ipar[c, 4] // self.observed_stride)
-                           for c in range(len(visible)) if ipar[c, 4] and count[c]))
-            vid, oid = np.empty(size, np.int64), np.empty(size, np.int64)
-            counts = np.zeros(len(visible), np.int64)
-            n = _pair_views(vis, count, np.ascontiguousarray(px, np.float64), xs, ys, ids, starts,
-                            points, fpar, ipar, self.observed_stride, self.reject_factor,
-                            self.min_reject_px, self.max_distance_px, vid, oid, counts)
-            return vid[:n], oid[:n], [int(k) for k in counts]
+            return self._pairs_compiled(px, vis, count, observed)
         vids, oids, counts = [], [], []
         first = 0
         for c, vid in enumerate(visible):
@@ -585,6 +585,19 @@ class ContourMatcher:
             first += len(obs)
         return _cat(vids, np.int64), _cat(oids, np.int64), counts
 
+    def _pairs_compiled(self, px: np.ndarray, vis: np.ndarray, count: np.ndarray,
+                        observed: ObservedContours) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """:meth:`pairs` compiled, the visible ids as arrays (vis (C, n), count (C,))."""
+        xs, ys, ids, starts, points, fpar, ipar = packed_grids(observed)
+        m = ipar[:, 4]
+        size = int(np.where((m > 0) & (count > 0), count + -(-m // self.observed_stride), 0).sum())
+        vid, oid = np.empty(size, np.int64), np.empty(size, np.int64)
+        counts = np.zeros(len(count), np.int64)
+        n = _pair_views(vis, count, np.ascontiguousarray(px, np.float64), xs, ys, ids, starts,
+                        points, fpar, ipar, self.observed_stride, self.reject_factor,
+                        self.min_reject_px, self.max_distance_px, vid, oid, counts)
+        return vid[:n], oid[:n], counts.tolist()
+
     def __call__(self, verts: np.ndarray, observed: ObservedContours) -> tuple[PointLines, dict]:
         """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
         views without an observed contour."""
@@ -593,8 +606,12 @@ class ContourMatcher:
         cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
         px_small, px, depth_small = self.pixels(cam_xyz)
         model_masks = self.model_masks(px_small, depth_small)
-        visible = self.visible_contour_vertices(verts, px_small, model_masks)
-        vid, oid, counts = self.pairs(px, visible, observed)
+        if HAVE_NUMBA:
+            vid, oid, counts = self._pairs_compiled(
+                px, *self._visible_compiled(verts, px_small, model_masks), observed)
+        else:
+            vid, oid, counts = self.pairs(
+                px, self.visible_contour_vertices(verts, px_small, model_masks), observed)
         empty = [self.rig.names[c] for c, t in enumerate(observed.trees) if t is None]
         if len(vid) and HAVE_NUMBA:
             X, D, M = np.empty((len(vid), 3)), np.empty((len(vid), 3)), np.empty((len(vid), 3))
