@@ -182,31 +182,34 @@ if HAVE_NUMBA:
         for n in range(N):
             mask = out[n]
             for r in range(boxes[n, 0], boxes[n, 1]):
-                for j in range(boxes[n, 2], boxes[n, 3]):
-                    mask[r, j] = False
+                mask[r, boxes[n, 2]:boxes[n, 3]] = False
             boxes[n, 0] = boxes[n, 1] = boxes[n, 2] = boxes[n, 3] = 0
             c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd,
                                                     bwd, orient, flag, live, cols, acc,
                                                     height, width)
             if r_max < 0:
                 continue
-            for j in range(c_min, c_max):
-                run[j] = 0
+            width_n = c_max - c_min
+            live_run = run[c_min:c_max]
+            live_run[:] = 0
             r = r_min
+            # the row pass on 1D slices indexed from 0 (no negative-index wraparound test per
+            # pixel: LLVM vectorises it), the same integer sums as :func:`_rasterize`
             while r < height:
-                busy = False
-                for j in range(c_min, c_max):
-                    v = run[j] + acc[r, j]
-                    acc[r, j] = 0
-                    run[j] = v
-                    mask[r, j] = v != 0
-                    busy |= v != 0
+                row_acc = acc[r, c_min:c_max]
+                row_mask = mask[r, c_min:c_max]
+                busy = 0
+                for j in range(width_n):
+                    v = live_run[j] + row_acc[j]
+                    row_acc[j] = 0
+                    live_run[j] = v
+                    row_mask[j] = v != 0
+                    busy |= v
                 r += 1
-                if r > r_max and not busy:       # below the last crossing, all 0
+                if r > r_max and busy == 0:      # below the last crossing, all 0
                     break
             for rr in range(max(r, r_min), r_max + 1):    # a crossing on row ``height``
-                for j in range(c_min, c_max):
-                    acc[rr, j] = 0
+                acc[rr, c_min:c_max] = 0
             boxes[n, 0], boxes[n, 1], boxes[n, 2], boxes[n, 3] = r_min, r, c_min, c_max
 
 
