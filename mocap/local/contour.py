@@ -258,8 +258,8 @@ if HAVE_NUMBA:
                             n += 1
                             break
                     continue
-                for t in range(offsets.shape[0]):
-                    if line[r + offsets[t, 0], u + offsets[t, 1]]:
+                for t in range(offsets.shape[0]):      # unsigned: no negative-index tests
+                    if line[np.uint64(r + offsets[t, 0]), np.uint64(u + offsets[t, 1])]:
                         out[c, n] = v
                         n += 1
                         break
