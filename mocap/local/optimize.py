@@ -38,7 +38,7 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
     diag: dict = {"iterations": 0, "skipped": [], "correspondences": [], "rms_m": [],
                   "stopped": "iterations"}
     for it in range(iterations):
-        verts = shaped.pose(chi).vertices[0].astype(np.float64)
+        verts = shaped.vertices(chi)[0].astype(np.float64)      # pose()'s, without the joints
         corr, info = correspond(verts)
         if extra is not None:
             corr = merge([corr, extra(chi)])
