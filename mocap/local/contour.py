@@ -39,6 +39,7 @@ from mocap.render import get_rasterizer
 
 if HAVE_NUMBA:
     from mocap.local.nearest import bucket_grid, nearest_on_grid
+    from mocap.render._compiled import KeptMasks
 
 
 @dataclass(frozen=True)
@@ -92,9 +93,16 @@ def observed_contours(masks: np.ndarray) -> ObservedContours:
     """Outline pixels of observed silhouettes (C, H, W) bool, once per frame."""
     pts, trees = [], []
     for m in masks:
-        contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
-        p = (np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64) if contours
-             else np.zeros((0, 2)))
+        p = np.zeros((0, 2))
+        u8 = np.ascontiguousarray(m, bool).view(np.uint8)
+        x, y, w, h = cv2.boundingRect(u8)
+        if w:      # on the mask's box grown by a pixel (clipped): the same contours (tested)
+            x0, y0 = max(x - 1, 0), max(y - 1, 0)
+            crop = u8[y0:min(y + h + 1, u8.shape[0]), x0:min(x + w + 1, u8.shape[1])].copy()
+            contours, _ = cv2.findContours(crop, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE,
+                                           offset=(x0, y0))
+            if contours:
+                p = np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64)
         pts.append(p)
         trees.append(NearestPoints(p) if len(p) else None)
     return ObservedContours(pts, trees)
@@ -103,13 +111,14 @@ def observed_contours(masks: np.ndarray) -> ObservedContours:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _contour_marks(verts, faces, centers, edge_faces, edge_vertices, mark):
-        """mark[c, v] = True for the vertices of edges whose two faces face opposite ways
-        from centre c: the numpy path of :meth:`ContourMatcher.contour_vertices` in one
-        pass, with its arithmetic (n . centroid - n . centre, each a 3-term sum in order)."""
+    def _contour_marks(verts, faces, centers, edge_faces, edge_vertices, ids, counts):
+        """ids[c, :counts[c]] (increasing) = the vertices of edges whose two faces face opposite
+        ways from centre c: the numpy path of :meth:`ContourMatcher.contour_vertices` in one
+        pass, with its arithmetic (n . centroid - n . centre, each a 3-term sum in order); at
+        most 64 views (:meth:`ContourMatcher.contour_ids` splits more)."""
         F = faces.shape[0]
         C = centers.shape[0]
-        normal = np.empty((F, 3))
+        normal = np.empty((3, F))       # rows: the views' loop reads each one in order
         offset = np.empty(F)
         for f in range(F):
             a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
@@ -121,17 +130,31 @@ if HAVE_NUMBA:
             cx = (verts[a, 0] + verts[b, 0] + verts[c, 0]) / 3.0
             cy = (verts[a, 1] + verts[b, 1] + verts[c, 1]) / 3.0
             cz = (verts[a, 2] + verts[b, 2] + verts[c, 2]) / 3.0
-            normal[f, 0], normal[f, 1], normal[f, 2] = nx, ny, nz
+            normal[0, f], normal[1, f], normal[2, f] = nx, ny, nz
             offset[f] = nx * cx + ny * cy + nz * cz
-        facing = np.empty(F, np.bool_)
+        # the views' facing signs as bits of one word per face (C <= 64), so that one pass
+        # over the edges serves every view: the edges whose faces differ in some view's bit
+        bits = np.zeros(F, np.uint64)
+        n0, n1, n2 = normal[0], normal[1], normal[2]
         for k in range(C):
             px, py, pz = centers[k, 0], centers[k, 1], centers[k, 2]
-            for f in range(F):
-                facing[f] = offset[f] - (px * normal[f, 0] + py * normal[f, 1] + pz * normal[f, 2]) < 0
-            for e in range(edge_faces.shape[0]):
-                if facing[edge_faces[e, 0]] != facing[edge_faces[e, 1]]:
-                    mark[k, edge_vertices[e, 0]] = True
-                    mark[k, edge_vertices[e, 1]] = True
+            kk = np.uint64(k)
+            for f in range(F):           # branch-free: vectorised
+                below = offset[f] - (px * n0[f] + py * n1[f] + pz * n2[f]) < 0
+                bits[f] |= np.uint64(below) << kk
+        vbits = np.zeros(verts.shape[0], np.uint64)     # per vertex: the views it is marked in
+        for e in range(edge_faces.shape[0]):            # branch-free (~half the edges cross)
+            x = bits[edge_faces[e, 0]] ^ bits[edge_faces[e, 1]]
+            vbits[edge_vertices[e, 0]] |= x
+            vbits[edge_vertices[e, 1]] |= x
+        for k in range(C):               # compacted without a branch
+            kk = np.uint64(k)
+            row = ids[k]
+            n = 0
+            for v in range(vbits.shape[0]):
+                row[n] = v
+                n += (vbits[v] >> kk) & np.uint64(1)
+            counts[k] = n
 
 
 if HAVE_NUMBA:
@@ -165,54 +188,82 @@ if HAVE_NUMBA:
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def _pixel_boxes(px, h, w, out):
-        """out[c] = (x, y, width, height): the pixel box of view c's finite points px[c] (V, 2)
-        (grown to whole pixels, clipped to the h x w image; width 0: none inside). It holds
-        every pixel a mesh drawn from these points covers (pixel centres inside its triangles)."""
-        for c in range(px.shape[0]):
-            lo_x = lo_y = np.inf
-            hi_x = hi_y = -np.inf
-            for v in range(px.shape[1]):
-                x = px[c, v, 0]
-                y = px[c, v, 1]
-                if np.isfinite(x) and np.isfinite(y):
-                    lo_x, hi_x = min(lo_x, x), max(hi_x, x)
-                    lo_y, hi_y = min(lo_y, y), max(hi_y, y)
-            x0 = max(np.floor(lo_x), 0.0)
-            y0 = max(np.floor(lo_y), 0.0)
-            x1 = min(np.ceil(hi_x), w - 1.0)
-            y1 = min(np.ceil(hi_y), h - 1.0)
-            if not (x0 <= x1 and y0 <= y1):
-                out[c, 0] = out[c, 1] = out[c, 2] = out[c, 3] = 0
+    def _outline(m, r0, r1, c0, c1, pad):
+        """The outline of mask m (h, w) bool, False outside the box rows [r0, r1), columns
+        [c0, c1): its pixels with a 3 x 3 neighbour outside it, beyond the image's border
+        counting as inside (cv2.erode's default), on that box grown by ``pad`` on every side
+        (r1 - r0 + 2 pad, c1 - c0 + 2 pad) uint8 0 / 1 (0 outside the box).
+        The erosion separably, across 3 columns, then across 3 rows (loops over slices from 0,
+        which LLVM vectorises)."""
+        h, w = m.shape
+        bh, bw = r1 - r0, c1 - c0
+        img = m.view(np.uint8)
+        across = np.ones((bh + 2, bw), np.uint8)      # rows r0 - 1 .. r1; beyond the image: 1
+        a, b = max(c0, 1), min(c1, w - 1)             # columns with both neighbours in the image
+        for i in range(bh + 2):
+            r = r0 - 1 + i
+            if r < 0 or r >= h:
                 continue
-            out[c, 0], out[c, 1] = int(x0), int(y0)
-            out[c, 2], out[c, 3] = int(x1 - x0) + 1, int(y1 - y0) + 1
+            src = img[r]
+            left, mid, right = src[a - 1:b - 1], src[a:b], src[a + 1:b + 1]
+            dst = across[i, a - c0:b - c0]
+            for j in range(b - a):
+                dst[j] = left[j] & mid[j] & right[j]
+            if c0 == 0:                               # column -1 beyond the image: inside
+                across[i, 0] = src[0] & src[min(1, w - 1)]
+            if c1 == w and bw > 0 and (w > 1 or c0 != 0):
+                across[i, bw - 1] = src[w - 1] & src[max(w - 2, 0)]
+        out = np.zeros((bh + 2 * pad, bw + 2 * pad), np.uint8)
+        for i in range(bh):
+            o, here = out[pad + i, pad:pad + bw], img[r0 + i, c0:c1]
+            up, at, down = across[i], across[i + 1], across[i + 2]
+            for j in range(bw):
+                o[j] = here[j] & ((up[j] & at[j] & down[j]) ^ 1)
+        return out
 
     @njit(cache=True)
-    def _visible_marks(mark, px, bands, stride, out, count):
-        """Per view c: every ``stride``-th marked vertex (mark (C, V) bool) whose pixel px[c]
-        (V, 2) lies in the image and, rounded half to even, on the band bands[c] (h, w) uint8
-        (:func:`outline_band`) -> out[c, :count[c]] (ids in increasing order)."""
-        C, V = mark.shape
-        h, w = bands.shape[1], bands.shape[2]
+    def _visible_on_masks(ids, marked, px, masks, boxes, offsets, stride, out, count):
+        """The numpy path's visibility (the band of :func:`outline_band`) without drawing the
+        band: per view c, every ``stride``-th marked vertex (ids[c, :marked[c]]) whose pixel
+        px[c] (V, 2), in the image and rounded half to even, has within ``offsets`` ((K, 2)
+        (dy, dx): the tolerance's structuring element about its anchor) a pixel of the outline
+        (:func:`_outline`, on the box grown by the element's radius) of masks[c] (h, w) bool,
+        False outside boxes[c] (row0, row1, col0, col1) -> out[c, :count[c]]."""
+        C = ids.shape[0]
+        h, w = masks.shape[1], masks.shape[2]
+        R = 0
+        for t in range(offsets.shape[0]):
+            R = max(R, abs(offsets[t, 0]), abs(offsets[t, 1]))
         for c in range(C):
+            r0, r1, c0, c1 = boxes[c, 0], boxes[c, 1], boxes[c, 2], boxes[c, 3]
+            line = _outline(masks[c], r0, r1, c0, c1, R)
+            # a pixel more than R outside the box has no outline pixel within the element
+            gh, gw = r1 - r0 + R, c1 - c0 + R
             n = 0
-            k = 0
-            for v in range(V):
-                if not mark[c, v]:
-                    continue
-                k += 1
-                if (k - 1) % stride != 0:
-                    continue
+            for i in range(0, marked[c], stride):
+                v = ids[c, i]
                 x = px[c, v, 0]
                 y = px[c, v, 1]
                 if not (x >= 0 and x <= w - 1 and y >= 0 and y <= h - 1):
                     continue
-                if bands[c, int(np.rint(y)), int(np.rint(x))] > 0:
-                    out[c, n] = v
-                    n += 1
+                u, r = int(np.rint(x)) - c0 + R, int(np.rint(y)) - r0 + R
+                if r < R or r >= gh or u < R or u >= gw:
+                    if r < 0 or r >= gh + R or u < 0 or u >= gw + R:
+                        continue
+                    # near the padded edge: the element may reach outside the padding
+                    for t in range(offsets.shape[0]):
+                        oy, ox = r + offsets[t, 0], u + offsets[t, 1]
+                        if oy >= 0 and oy < gh + R and ox >= 0 and ox < gw + R and line[oy, ox]:
+                            out[c, n] = v
+                            n += 1
+                            break
+                    continue
+                for t in range(offsets.shape[0]):      # unsigned: no negative-index tests
+                    if line[np.uint64(r + offsets[t, 0]), np.uint64(u + offsets[t, 1])]:
+                        out[c, n] = v
+                        n += 1
+                        break
             count[c] = n
-
 
 if HAVE_NUMBA:
 
@@ -363,6 +414,12 @@ class ContourMatcher:
         r = int(np.ceil(visibility_tolerance_px))
         self.kernel3 = np.ones((3, 3), np.uint8)
         self.kernel_tol = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        # the tolerance's offsets (dy, dx) about its anchor, nearest first (the search stops
+        # at the first outline pixel)
+        off = np.argwhere(self.kernel_tol > 0) - np.array(self.kernel_tol.shape) // 2
+        self.tol_offsets = np.ascontiguousarray(off[np.argsort((off**2).sum(1), kind="stable")],
+                                                np.int64)
+        self.kept = None              # the model masks kept between calls (compiled path)
         self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
         self.max_distance_px = max_distance * float(rig.sizes[0][1])
         self.stride, self.observed_stride = stride, observed_stride
@@ -379,19 +436,41 @@ class ContourMatcher:
                             bool(np.any(self.rig.dist)), self.two_skew, out)
         return out[0], out[1], cam_xyz[:, 2, :]
 
-    def contour_marks(self, verts: np.ndarray, centers: np.ndarray) -> np.ndarray:
-        """(C, V) bool: the vertices on the contour generator seen from each camera centre
-        (C, 3) (compiled: :func:`_contour_marks`)."""
-        mark = np.zeros((len(centers), len(verts)), bool)
-        _contour_marks(np.ascontiguousarray(verts, np.float64), self.faces64,
-                       np.ascontiguousarray(centers, np.float64), self.edge_faces,
-                       self.edge_vertices, mark)
-        return mark
+    def model_masks(self, px_small: np.ndarray, depth_small: np.ndarray) -> np.ndarray:
+        """The model's silhouettes (C, h, w) bool in the visibility rig from its pixels (C, V, 2)
+        and depths (C, V) (faces with a vertex at depth <= 0.05 culled). Compiled: drawn into
+        masks kept between calls (:class:`~mocap.render._compiled.KeptMasks`: only the last
+        call's boxes cleared and scanned; the array returned is overwritten by the next call);
+        the rasterizer's checks where a pixel is not finite."""
+        h, w = self.small_size
+        px_small = np.asarray(px_small, np.float64)
+        if not (HAVE_NUMBA and self.raster.compiled and np.isfinite(px_small).all()):
+            return self.raster(px_small, h, w, depth_small, near=0.05)
+        if self.kept is None or self.kept.masks.shape[0] != len(px_small):
+            self.kept = KeptMasks(len(px_small), h, w)
+        faces, edges = self.raster.kernel_arrays
+        return self.kept.draw(np.ascontiguousarray(px_small[..., 0]),
+                              np.ascontiguousarray(px_small[..., 1]),
+                              np.ascontiguousarray(depth_small > 0.05), faces, edges)
+
+    def contour_ids(self, verts: np.ndarray, centers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices on the contour generator seen from each camera centre (C, 3): ids
+        (C, V), row c's first counts[c] (C,) in increasing order (compiled:
+        :func:`_contour_marks`)."""
+        ids = np.empty((len(centers), len(verts)), np.int64)
+        counts = np.zeros(len(centers), np.int64)
+        verts = np.ascontiguousarray(verts, np.float64)
+        centers = np.ascontiguousarray(centers, np.float64)
+        for s in range(0, len(centers), 64):
+            _contour_marks(verts, self.faces64, centers[s:s + 64], self.edge_faces,
+                           self.edge_vertices, ids[s:s + 64], counts[s:s + 64])
+        return ids, counts
 
     def contour_vertices(self, verts: np.ndarray, centers: np.ndarray) -> list[np.ndarray]:
         """Vertex ids on the contour generator seen from each camera centre (C, 3)."""
         if HAVE_NUMBA:
-            return [np.flatnonzero(m) for m in self.contour_marks(verts, centers)]
+            ids, counts = self.contour_ids(verts, centers)
+            return [ids[c, :counts[c]].copy() for c in range(len(centers))]
         tri = verts[self.body.faces]
         normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         centroids = tri.mean(axis=1)
@@ -412,20 +491,12 @@ class ContourMatcher:
         """Per view the ids of the contour-generator vertices (every ``stride``-th) that are
         visible: in the image, and projecting (px_small (C, V, 2), rounded) onto the outline
         band of the model's own silhouette (model_masks (C, h, w)). Compiled: one pass over all
-        views (:func:`_visible_marks`); otherwise :func:`outline_band` per view."""
+        views that looks for an outline pixel around each vertex (:func:`_visible_on_masks`, no
+        band image); otherwise :func:`outline_band` per view."""
         h, w = self.small_size
         if HAVE_NUMBA:
-            mark = self.contour_marks(verts, self.rig.centers)
-            px_small = np.ascontiguousarray(px_small, np.float64)
-            boxes = np.zeros((len(mark), 4), np.int64)
-            _pixel_boxes(px_small, h, w, boxes)
-            bands = np.zeros(model_masks.shape, np.uint8)
-            for c in range(len(mark)):
-                outline_band(model_masks[c], self.kernel3, self.kernel_tol, tuple(boxes[c]), bands[c])
-            out = np.empty(mark.shape, np.int64)
-            count = np.zeros(len(mark), np.int64)
-            _visible_marks(mark, px_small, bands, self.stride, out, count)
-            return [out[c, :count[c]] for c in range(len(mark))]
+            out, count = self._visible_compiled(verts, px_small, model_masks)
+            return [out[c, :count[c]] for c in range(len(out))]
         visible = []
         for c, vid in enumerate(self.contour_vertices(verts, self.rig.centers)):
             vid = vid[:: self.stride]
@@ -436,6 +507,24 @@ class ContourMatcher:
             ui, vi = np.round(ps).astype(int).T
             visible.append(vid[near_outline[vi, ui] > 0])
         return visible
+
+    def _visible_compiled(self, verts: np.ndarray, px_small: np.ndarray, model_masks: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`visible_contour_vertices` compiled, as arrays: ids (C, V), row c's first
+        count[c] (C,) visible."""
+        h, w = self.small_size
+        ids, marked = self.contour_ids(verts, self.rig.centers)
+        out = np.empty(ids.shape, np.int64)
+        count = np.zeros(len(ids), np.int64)
+        if self.kept is not None and model_masks is self.kept.masks:
+            boxes = self.kept.boxes
+        else:
+            boxes = np.zeros((len(ids), 4), np.int64)
+            boxes[:, 1], boxes[:, 3] = h, w
+        _visible_on_masks(ids, marked, np.ascontiguousarray(px_small, np.float64),
+                          np.ascontiguousarray(model_masks), boxes, self.tol_offsets,
+                          self.stride, out, count)
+        return out, count
 
     def observed_lines(self, observed: ObservedContours) -> tuple[np.ndarray, np.ndarray]:
         """Plücker lines (directions, moments; (P, 3) each) of every observed contour point,
@@ -467,19 +556,11 @@ class ContourMatcher:
         ids (N,) (into the views' points one after the other) and the count per view.
         Compiled: one pass over all views (:func:`_pair_views`)."""
         if HAVE_NUMBA:
-            xs, ys, ids, starts, points, fpar, ipar = packed_grids(observed)
             count = np.array([len(v) for v in visible], np.int64)
             vis = np.zeros((len(visible), max(1, int(count.max()))), np.int64)
             for c, v in enumerate(visible):
                 vis[c, :len(v)] = v
-            size = int(sum(count[c] + -(-ipar[c, 4] // self.observed_stride)
-                           for c in range(len(visible)) if ipar[c, 4] and count[c]))
-            vid, oid = np.empty(size, np.int64), np.empty(size, np.int64)
-            counts = np.zeros(len(visible), np.int64)
-            n = _pair_views(vis, count, np.ascontiguousarray(px, np.float64), xs, ys, ids, starts,
-                            points, fpar, ipar, self.observed_stride, self.reject_factor,
-                            self.min_reject_px, self.max_distance_px, vid, oid, counts)
-            return vid[:n], oid[:n], [int(k) for k in counts]
+            return self._pairs_compiled(px, vis, count, observed)
         vids, oids, counts = [], [], []
         first = 0
         for c, vid in enumerate(visible):
@@ -504,6 +585,19 @@ class ContourMatcher:
             first += len(obs)
         return _cat(vids, np.int64), _cat(oids, np.int64), counts
 
+    def _pairs_compiled(self, px: np.ndarray, vis: np.ndarray, count: np.ndarray,
+                        observed: ObservedContours) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """:meth:`pairs` compiled, the visible ids as arrays (vis (C, n), count (C,))."""
+        xs, ys, ids, starts, points, fpar, ipar = packed_grids(observed)
+        m = ipar[:, 4]
+        size = int(np.where((m > 0) & (count > 0), count + -(-m // self.observed_stride), 0).sum())
+        vid, oid = np.empty(size, np.int64), np.empty(size, np.int64)
+        counts = np.zeros(len(count), np.int64)
+        n = _pair_views(vis, count, np.ascontiguousarray(px, np.float64), xs, ys, ids, starts,
+                        points, fpar, ipar, self.observed_stride, self.reject_factor,
+                        self.min_reject_px, self.max_distance_px, vid, oid, counts)
+        return vid[:n], oid[:n], counts.tolist()
+
     def __call__(self, verts: np.ndarray, observed: ObservedContours) -> tuple[PointLines, dict]:
         """Correspondences for posed vertices (V, 3); diagnostics: per-view counts, and the
         views without an observed contour."""
@@ -511,9 +605,13 @@ class ContourMatcher:
         # camera coordinates once: the visibility rig (rescaled) shares R, t with the rig
         cam_xyz = camera_coordinates(self.rig, verts)                   # (C, 3, V)
         px_small, px, depth_small = self.pixels(cam_xyz)
-        model_masks = self.raster(px_small, h, w, depth_small, near=0.05)
-        visible = self.visible_contour_vertices(verts, px_small, model_masks)
-        vid, oid, counts = self.pairs(px, visible, observed)
+        model_masks = self.model_masks(px_small, depth_small)
+        if HAVE_NUMBA:
+            vid, oid, counts = self._pairs_compiled(
+                px, *self._visible_compiled(verts, px_small, model_masks), observed)
+        else:
+            vid, oid, counts = self.pairs(
+                px, self.visible_contour_vertices(verts, px_small, model_masks), observed)
         empty = [self.rig.names[c] for c, t in enumerate(observed.trees) if t is None]
         if len(vid) and HAVE_NUMBA:
             X, D, M = np.empty((len(vid), 3)), np.empty((len(vid), 3)), np.empty((len(vid), 3))

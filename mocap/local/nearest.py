@@ -55,7 +55,8 @@ if HAVE_NUMBA:
                         b = min(x_hi, nx - 1) if edge else a
                         if a < 0 or b >= nx:
                             continue
-                        for k in range(start[iy * nx + a], start[iy * nx + b + 1]):
+                        # unsigned: no negative-index test per point
+                        for k in range(np.uint64(start[iy * nx + a]), np.uint64(start[iy * nx + b + 1])):
                             dx = xs[k] - qx
                             dy = ys[k] - qy
                             d = dx * dx + dy * dy

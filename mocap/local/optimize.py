@@ -9,6 +9,8 @@ import numpy as np
 from mocap.body.jacobian import dof_frames
 from mocap.body.model import ShapedBody
 from mocap.local import solver
+from mocap.local.normal_equations import compiled_available
+from mocap.local.posing import dof_frames_compiled
 from mocap.local.solver import PointLines, gauss_newton_step, merge
 
 Correspond = Callable[[np.ndarray], tuple[PointLines, dict]]
@@ -36,13 +38,16 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
     diag: dict = {"iterations": 0, "skipped": [], "correspondences": [], "rms_m": [],
                   "stopped": "iterations"}
     for it in range(iterations):
-        verts = shaped.pose(chi).vertices[0].astype(np.float64)
+        verts = shaped.vertices(chi)[0].astype(np.float64)      # pose()'s, without the joints
         corr, info = correspond(verts)
         if extra is not None:
             corr = merge([corr, extra(chi)])
         diag["correspondences"].append(len(corr))
         diag.setdefault("per_iteration", []).append(info)
-        w, q, _ = dof_frames(body, shaped.axes, shaped.rest_joints, chi)
+        if solver.LEGACY or not compiled_available():
+            w, q, _ = dof_frames(body, shaped.axes, shaped.rest_joints, chi)
+        else:                            # the same frames compiled (mocap.local.posing)
+            w, q = dof_frames_compiled(body, shaped.axes, shaped.rest_joints, chi)
         step = gauss_newton_step(body, chi, corr, w, q, damping=damping,
                                  min_correspondences=min_correspondences, free=free)
         diag["iterations"] = it + 1

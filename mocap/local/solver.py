@@ -19,6 +19,7 @@ from mocap.body.jacobian import ancestors, point_jacobians
 from mocap.body.model import BodyModel
 from mocap.body.twists import hat, se3_exp, se3_log
 from mocap.local.normal_equations import accumulate, active_dofs, compiled_available
+from mocap.local.posing import apply_delta_compiled
 
 # True: the reference path without the compiled normal equations (benchmarks/bench_speed.py
 # --compare times both)
@@ -175,4 +176,5 @@ def gauss_newton_step(body: BodyModel, chi: np.ndarray, corr: PointLines, w: np.
     big = np.abs(delta[3:]).max() if len(delta) > 3 else 0.0
     if big > max_step:                       # keep the linearisation valid
         delta = delta * (max_step / big)
-    return StepResult(apply_delta(body, chi, delta), delta, True, "", rms)
+    update = apply_delta if LEGACY or not compiled_available() else apply_delta_compiled
+    return StepResult(update(body, chi, delta), delta, True, "", rms)

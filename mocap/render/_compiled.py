@@ -162,6 +162,79 @@ if HAVE_NUMBA:
                         acc[rr, j] = 0
 
 
+if HAVE_NUMBA:
+
+    @njit(cache=True)
+    def _rasterize_boxes(x, y, vis, faces, ea, eb, fwd, bwd, height, width, acc, run, out, boxes):
+        """:func:`_rasterize`'s silhouettes, one thread, into masks that are kept between calls:
+        out (N, height, width) bool holds the last call's masks, each False outside boxes[n]
+        (row0, row1, col0, col1: the rows and columns that call wrote); only that box is
+        cleared before the new mask is drawn, and boxes[n] becomes the new one. acc
+        ((height + 1, width) int32, all 0) is left all 0 again; run (width,) int32 is work.
+        The same masks as :func:`_rasterize` without its per-call clear of every pixel."""
+        N = x.shape[0]
+        F = faces.shape[0]
+        E = ea.shape[0]
+        orient = np.zeros(F + 1, np.int32)
+        live = np.empty(E, np.int32)
+        flag = np.empty(E, np.uint8)
+        cols = np.empty((E, 2), np.int32)
+        for n in range(N):
+            mask = out[n]
+            for r in range(boxes[n, 0], boxes[n, 1]):
+                mask[r, boxes[n, 2]:boxes[n, 3]] = False
+            boxes[n, 0] = boxes[n, 1] = boxes[n, 2] = boxes[n, 3] = 0
+            c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd,
+                                                    bwd, orient, flag, live, cols, acc,
+                                                    height, width)
+            if r_max < 0:
+                continue
+            width_n = c_max - c_min
+            live_run = run[c_min:c_max]
+            live_run[:] = 0
+            r = r_min
+            # the row pass on 1D slices indexed from 0 (no negative-index wraparound test per
+            # pixel: LLVM vectorises it), the same integer sums as :func:`_rasterize`
+            while r < height:
+                row_acc = acc[r, c_min:c_max]
+                row_mask = mask[r, c_min:c_max]
+                busy = 0
+                for j in range(width_n):
+                    v = live_run[j] + row_acc[j]
+                    row_acc[j] = 0
+                    live_run[j] = v
+                    row_mask[j] = v != 0
+                    busy |= v
+                r += 1
+                if r > r_max and busy == 0:      # below the last crossing, all 0
+                    break
+            for rr in range(max(r, r_min), r_max + 1):    # a crossing on row ``height``
+                acc[rr, c_min:c_max] = 0
+            boxes[n, 0], boxes[n, 1], boxes[n, 2], boxes[n, 3] = r_min, r, c_min, c_max
+
+
+class KeptMasks:
+    """Silhouettes drawn again and again at one size (the local step: the same views every
+    iteration): the masks, the accumulation image and each mask's drawn box kept between
+    calls, so that a call clears and scans only the boxes (:func:`_rasterize_boxes`). One
+    per user: not for concurrent calls."""
+
+    def __init__(self, count: int, height: int, width: int):
+        self.masks = np.zeros((count, height, width), bool)
+        self.acc = np.zeros((height + 1, width), np.int32)
+        self.run = np.zeros(width, np.int32)
+        self.boxes = np.zeros((count, 4), np.int64)
+
+    def draw(self, x: np.ndarray, y: np.ndarray, vis: np.ndarray, faces: np.ndarray,
+             edge_arrays) -> np.ndarray:
+        """The silhouettes (N, height, width) bool of N projected meshes (x, y, vis (N, V), as
+        :func:`rasterize_compiled`); the array is overwritten by the next call."""
+        _, height, width = self.masks.shape
+        _rasterize_boxes(x, y, vis, faces, *edge_arrays, height, width, self.acc, self.run,
+                         self.masks, self.boxes)
+        return self.masks
+
+
 def rasterize_compiled(x: np.ndarray, y: np.ndarray, vis: np.ndarray, faces: np.ndarray, edge_arrays,
                        height: int, width: int, out: np.ndarray, threads: int = 1) -> None:
     """Silhouettes of N projected meshes into ``out`` (N, height, width) bool (C-contiguous).

@@ -140,8 +140,9 @@ def test_shape_initialisation_is_closer_to_the_truth_than_the_mean_shape(body):
 
 @pytest.mark.parametrize("dtype", ["body", "body64"])
 def test_compiled_contour_generator_equals_the_numpy_one(dtype, request, monkeypatch):
-    """The compiled contour generator (one pass over faces and edges per view) gives the numpy
-    path's vertex sets, view for view, on random poses and shapes."""
+    """The compiled contour generator (the views' facing signs as bits of a word per face, one
+    pass over the edges) gives the numpy path's vertex sets, view for view, on random poses
+    and shapes, for a rig's 6 views and for 70 centres (two passes of at most 64)."""
     from mocap.local import contour
 
     pytest.importorskip("numba")
@@ -155,13 +156,17 @@ def test_compiled_contour_generator_equals_the_numpy_one(dtype, request, monkeyp
         chi[:3] = rng.normal(0, 0.2, 3)
         chi = np.clip(chi, b.limits[:, 0], b.limits[:, 1]).astype(b.dtype)
         verts = b.shaped(rng.normal(size=b.num_shape)).pose(chi).vertices[0]
-        compiled = matcher.contour_vertices(verts, rig.centers)
-        monkeypatch.setattr(contour, "HAVE_NUMBA", False)
-        reference = matcher.contour_vertices(verts, rig.centers)
-        monkeypatch.undo()
-        assert all(len(a) > 50 for a in compiled)
-        for a, r in zip(compiled, reference, strict=True):
-            np.testing.assert_array_equal(a, r)
+        # the rig's centres, and 70 around the body (more than the kernel's 64 views a pass)
+        around = rng.normal(0, 1, (70, 3))
+        around = 3.5 * around / np.linalg.norm(around, axis=1, keepdims=True) + [0, 0, 0.9]
+        for centers in (rig.centers, around):
+            compiled = matcher.contour_vertices(verts, centers)
+            monkeypatch.setattr(contour, "HAVE_NUMBA", False)
+            reference = matcher.contour_vertices(verts, centers)
+            monkeypatch.undo()
+            assert all(len(a) > 50 for a in compiled)
+            for a, r in zip(compiled, reference, strict=True):
+                np.testing.assert_array_equal(a, r)
 
 
 def test_outline_band_on_the_masks_box_is_the_whole_image_computation():
@@ -267,3 +272,131 @@ def test_pixels_in_both_rigs_equal_pixels_from_camera(body, walk, distorted):
     np.testing.assert_array_equal(small, want_small)
     np.testing.assert_array_equal(full, pixels_from_camera(rig, xyz)[0])
     np.testing.assert_array_equal(depth, want_depth)
+
+
+def _blob_masks(h, w, rng, count=12):
+    """Masks for the outline tests: empty, full, a single pixel, a one-pixel row and column on
+    the border, and random elliptic blobs (some over the border) with holes."""
+    yy, xx = np.ogrid[:h, :w]
+    masks = [np.zeros((h, w), bool), np.ones((h, w), bool)]
+    for sl in ((40, 60), (0, slice(None)), (slice(None), w - 1), (h - 1, 0)):
+        m = np.zeros((h, w), bool)
+        m[sl] = True
+        masks.append(m)
+    for _ in range(count):
+        cy, cx = rng.integers(-10, h + 10), rng.integers(-10, w + 10)
+        m = ((yy - cy) / rng.integers(3, 40)) ** 2 + ((xx - cx) / rng.integers(3, 50)) ** 2 < 1
+        m &= rng.random((h, w)) > 0.05                                     # holes
+        masks.append(m)
+    return masks
+
+
+def test_visibility_without_the_band_image_equals_the_band_lookup():
+    """The compiled visibility (an outline pixel searched within the tolerance's element
+    around each vertex, the outline eroded on the mask's box) keeps exactly the vertices whose
+    rounded pixel lies on the numpy path's band (:func:`outline_band`): points all over the
+    image, on half-pixels and outside it, with a stride, for tolerances 1 to 3 px, on masks
+    touching every border, with holes, a single pixel, the full image and an empty one."""
+    import cv2
+
+    from mocap.local import contour
+
+    pytest.importorskip("numba")
+    k3 = np.ones((3, 3), np.uint8)
+    rng = np.random.default_rng(11)
+    h, w = 90, 120
+    masks = _blob_masks(h, w, rng)
+    V = 3000
+    px = np.stack([rng.uniform(-3, w + 2, V), rng.uniform(-3, h + 2, V)], -1)
+    px[:400] = np.round(px[:400] * 2) / 2                                   # half-pixels: ties
+    mark = rng.random((len(masks), V)) < 0.6
+    pxs = np.ascontiguousarray(np.broadcast_to(px, (len(masks), V, 2)))
+    for tol in (1.0, 1.5, 3.0):
+        r = int(np.ceil(tol))
+        kt = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        off = np.argwhere(kt > 0) - np.array(kt.shape) // 2
+        offsets = np.ascontiguousarray(off[np.argsort((off**2).sum(1), kind="stable")], np.int64)
+        for stride in (1, 3):
+            stack = np.ascontiguousarray(masks)
+            boxes = np.zeros((len(masks), 4), np.int64)
+            for c, m in enumerate(masks):                 # the mask's box (the kept masks' case)
+                x, y, bw, bh = cv2.boundingRect(m.astype(np.uint8))
+                boxes[c] = y, y + bh, x, x + bw
+            ids = np.zeros(mark.shape, np.int64)
+            marked = mark.sum(axis=1)
+            for c in range(len(masks)):
+                ids[c, :marked[c]] = np.flatnonzero(mark[c])
+            out = np.empty(mark.shape, np.int64)
+            count = np.zeros(len(masks), np.int64)
+            contour._visible_on_masks(ids, marked, pxs, stack, boxes, offsets, stride, out, count)
+            whole = np.zeros_like(boxes)
+            whole[:, 1], whole[:, 3] = h, w
+            out2, count2 = np.empty(mark.shape, np.int64), np.zeros(len(masks), np.int64)
+            contour._visible_on_masks(ids, marked, pxs, stack, whole, offsets, stride, out2, count2)
+            for c, m in enumerate(masks):
+                band = contour.outline_band(m, k3, kt)
+                vid = np.flatnonzero(mark[c])[::stride]
+                p = px[vid]
+                inside = (p[:, 0] >= 0) & (p[:, 0] <= w - 1) & (p[:, 1] >= 0) & (p[:, 1] <= h - 1)
+                vid, p = vid[inside], p[inside]
+                ui, vi = np.round(p).astype(int).T
+                want = vid[band[vi, ui] > 0]
+                np.testing.assert_array_equal(out[c, :count[c]], want)
+                np.testing.assert_array_equal(out2[c, :count2[c]], want)
+                assert 0 < len(want) < len(vid) or c < 2 or m.sum() < 2
+
+
+def test_masks_kept_between_calls_equal_fresh_rasterizer_masks(body, walk):
+    """The local step's model silhouettes drawn into masks kept between calls (only the last
+    call's boxes cleared and scanned) are the rasterizer's masks at every call: a walk's poses
+    one after the other, the body moved off the side of some views and back, vertices behind
+    the near plane (their faces culled) in some views; the accumulation image is all 0 after
+    each call."""
+    from mocap.cameras import project
+    from mocap.render import get_rasterizer
+    from mocap.render._compiled import KeptMasks
+
+    pytest.importorskip("numba")
+    rig, seq = walk
+    small = rig.scaled(0.5)
+    w, h = (int(v) for v in small.sizes[0])
+    raster = get_rasterizer(body.faces, body.num_vertices)
+    faces, edges = raster.kernel_arrays
+    kept = KeptMasks(len(rig), h, w)
+    sb = body.shaped(seq.gt.alpha)
+    rng = np.random.default_rng(2)
+    poses = [seq.gt.chi[f].astype(np.float64) for f in range(3)]
+    far = poses[0].copy()
+    far[:3] += [1.6, 0.4, 0.0]
+    touching = 0
+    for k, chi in enumerate([*poses, far, far, poses[1], poses[2], poses[2]]):
+        verts = sb.pose(chi).vertices[0].astype(np.float64)
+        px, depth = project(small, verts, return_depth=True)
+        if k >= 4:                                   # some vertices behind the near plane
+            depth = depth.copy()
+            depth[rng.random(depth.shape) < 0.02] = 0.01
+        want = raster(px, h, w, depth, near=0.05)
+        got = kept.draw(np.ascontiguousarray(px[..., 0]), np.ascontiguousarray(px[..., 1]),
+                        np.ascontiguousarray(depth > 0.05), faces, edges)
+        np.testing.assert_array_equal(got, want)
+        assert not kept.acc.any()
+        touching += int(want[:, :, [0, -1]].any() or want[:, [0, -1], :].any())
+        assert want.any()
+    assert touching >= 2                             # the moved body crosses an image border
+
+
+def test_observed_contours_on_the_masks_box_are_the_whole_image_ones():
+    """The observed outline traced on each mask's box grown by a pixel is cv2.findContours on
+    the whole image, point for point and in the same order: blobs inside and over every
+    border, with holes, a single pixel, a border row and column, the full image, an empty one."""
+    import cv2
+
+    rng = np.random.default_rng(12)
+    masks = np.stack(_blob_masks(90, 120, rng, count=20))
+    got = observed_contours(masks)
+    for m, p in zip(masks, got.points, strict=True):
+        contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+        want = (np.concatenate([c[:, 0, :] for c in contours]).astype(np.float64) if contours
+                else np.zeros((0, 2)))
+        np.testing.assert_array_equal(p, want)
+    assert sum(len(p) == 0 for p in got.points) == 1 and got.trees[0] is None

@@ -42,3 +42,32 @@ def test_a_limb_already_off_at_the_first_check_stays_detectable(scene):
     det = MisalignmentDetector(body, seq.rig)
     check = det(body.shaped(seq.gt.alpha).pose(chi).vertices[0], seq.masks[0])
     assert "l_wrist" in check.names                         # its baseline is capped
+
+
+@pytest.mark.parametrize("tolerance", [0, 1, 2])
+def test_compiled_limb_errors_equal_the_dilated_mask_lookup(scene, tolerance, monkeypatch):
+    """The limb errors counted in one compiled pass (a square of 2 tolerance + 1 pixels around
+    each vertex) equal the numpy path's (cv2.dilate, then a lookup per vertex), bit for bit:
+    the true pose, a perturbed one, vertices off the image and on half-pixels, an empty view."""
+    pytest.importorskip("numba")
+    from mocap.local import misalignment
+
+    body, seq = scene
+    det = MisalignmentDetector(body, seq.rig, tolerance_px=tolerance)
+    rng = np.random.default_rng(tolerance)
+    masks = seq.masks[0].copy()
+    masks[1] = False
+    for k in range(3):
+        chi = seq.gt.chi[0].copy()
+        chi[6:] += rng.normal(0, 0.2 * k, body.num_dofs - 6)
+        chi[:3] += [0.8 * (k == 2), 0.0, 0.0]                        # partly off some images
+        verts = body.shaped(seq.gt.alpha).pose(chi).vertices[0]
+        obs, px, _ = det._observed(verts, masks)
+        px = px.copy()
+        px[:, :50] = np.round(px[:, :50]) + 0.5                         # ties: half to even
+        got = det._limb_errors(obs, px)
+        monkeypatch.setattr(misalignment, "HAVE_NUMBA", False)
+        want = det._limb_errors(obs, px)
+        monkeypatch.undo()
+        np.testing.assert_array_equal(got, want)
+        assert np.nanmax(want) > 0 and np.isnan(want).any() == np.isnan(got).any()

@@ -178,3 +178,68 @@ def test_percentile90_is_numpys_percentile_bit_for_bit():
     for n in [*range(1, 40), 101, 1000, 4321]:
         x = rng.exponential(5.0, n)
         assert percentile90(x) == np.percentile(x, 90)
+
+
+@pytest.mark.parametrize("offset_m", [0.0, 40.0])
+def test_per_limb_moments_equal_the_per_correspondence_blocks(scene, offset_m):
+    """The normal equations from per-limb 6 x 6 moments chained through the tree (the kernel
+    used) equal the per-correspondence blocks on the active DOFs (the kernel before), with a
+    free-DOF mask, uneven weights, limbs without correspondences, and a subject 40 m from the
+    world origin (the moments are taken about a point of each limb)."""
+    pytest.importorskip("numba")
+    from mocap.local.normal_equations import accumulate, accumulate_per_correspondence
+    from mocap.local.solver import _tree_tables
+
+    sb, truth, rig, vid = scene
+    body = sb.model
+    start = truth.copy()
+    start[0] += offset_m
+    start[6:] += 0.1
+    target = truth.copy()
+    target[0] += offset_m
+    corr, _ = exact_correspondences(sb, target, rig, vid)(sb.pose(start).vertices[0].astype(np.float64))
+    rng = np.random.default_rng(7)
+    keep = body.part_labels[np.tile(vid, len(rig))] != body.part_labels[vid[0]]   # one limb without
+    wt = rng.uniform(0.2, 2.0, len(corr))
+    w, q, _ = dof_frames(body, sb.axes, sb.rest_joints, start)
+    for free in (np.ones(body.num_dofs, bool), rng.random(body.num_dofs) < 0.7):
+        args = (corr.points[keep], corr.d[keep], corr.m[keep], wt[keep], corr.limbs[keep],
+                _tree_tables(body)[1], q, w, free)
+        H, g, sq = accumulate(*args)
+        H0, g0, sq0 = accumulate_per_correspondence(*args)
+        assert np.all(H[~free] == 0) and np.all(g[~free] == 0)
+        np.testing.assert_allclose(H, H0, rtol=1e-11, atol=1e-11 * np.abs(H0).max())
+        np.testing.assert_allclose(g, g0, rtol=1e-11, atol=1e-11 * np.abs(g0).max())
+        assert sq == sq0
+
+
+def test_compiled_pose_maths_equal_the_numpy_functions(scene):
+    """The compiled DOF frames and pose update (mocap.local.posing) equal dof_frames and
+    apply_delta to rounding: random poses and steps, a global rotation near pi (so3_log's
+    axis branch), a zero rotation (the series), and steps past the joint limits (clipped)."""
+    pytest.importorskip("numba")
+    from mocap.local.posing import apply_delta_compiled, dof_frames_compiled
+
+    sb, truth, _, _ = scene
+    body = sb.model
+    rng = np.random.default_rng(9)
+    for k in range(8):
+        chi = truth.copy()
+        chi[:6] = rng.normal(0, 0.6, 6)
+        chi[6:] = rng.uniform(body.limits[6:, 0], body.limits[6:, 1])
+        if k == 1:
+            chi[3:6] = [0.0, 0.0, 0.0]
+        if k == 2:
+            chi[3:6] = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5]) * (np.pi - 1e-7)
+        w, q, _ = dof_frames(body, sb.axes, sb.rest_joints, chi)
+        w2, q2 = dof_frames_compiled(body, sb.axes, sb.rest_joints, chi)
+        np.testing.assert_allclose(w2, w, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(q2, q, rtol=0, atol=1e-13)
+        delta = rng.normal(0, 0.05 if k < 6 else 2.0, body.num_dofs)        # big: past the limits
+        if k == 3:
+            delta[3:6] = 0.0
+        want = apply_delta(body, chi, delta)
+        got = apply_delta_compiled(body, chi, delta)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 if k == 2 else 1e-13)
+        if k >= 6:
+            assert np.any(got[6:] == body.limits[6:, 1]) or np.any(got[6:] == body.limits[6:, 0])
