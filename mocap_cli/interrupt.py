@@ -10,7 +10,8 @@ dropped ("Exception ignored" in importlib's module-lock callback) or caught and 
 extension's own import code, so during an import the handler only records it, and :func:`check`
 raises it after the command's module is imported and around every config build;
 and native code that never returns to Python (a watchdog thread started by the first signal
-ends the process :data:`GRACE_S` seconds later, with the same line). A second Ctrl-C ends it at
+ends the process :data:`GRACE_S` seconds later, with the same line, removing the lock files of
+the run folders it holds: :func:`mocap.run_folder.lock.drop_files`). A second Ctrl-C ends it at
 once. Only a process that runs ``mocap`` as its program installs it (:func:`install`, not on
 import by a test or a notebook)."""
 
@@ -33,6 +34,9 @@ def _line() -> bytes:
 
 
 def _exit_now() -> None:
+    lock = sys.modules.get("mocap.run_folder.lock")      # (never imported here for this)
+    if lock is not None:
+        lock.drop_files()       # os._exit skips the run folders' clean-up: their lock files go now
     try:
         sys.stdout.flush()
     except Exception:       # noqa: BLE001 (stdout may be closed or broken)

@@ -93,12 +93,12 @@ def short_run(tmp_path_factory) -> Path:
     """A short tracked run directory (apf_prior on walk_small, 4 frames, tiny budget,
     recording on): motion.npz, metrics.json, recording.rrd. Used by the export and recording
     tests, which only read it. Under pytest-xdist the workers share one run: the first to need
-    it tracks it under a lock in the session's common temporary folder, the others wait and
-    reuse it."""
+    it tracks it (in its own process: :mod:`tests.cli.in_process`) under a lock in the session's
+    common temporary folder, the others wait and reuse it."""
     import fcntl
     import os
-    import subprocess
-    import sys
+
+    from tests.cli.in_process import mocap
 
     root = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
@@ -107,9 +107,8 @@ def short_run(tmp_path_factory) -> Path:
     with open(root / "short_run.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)    # released when the file closes
         if not done.is_file():
-            r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={out}",
-                                "tracker=apf_prior", "frames=4", "data=walk_small", "tracker.particles=6",
-                                "tracker.layers=2"], capture_output=True, text=True, cwd=REPO, timeout=900)
+            r = mocap("track", f"hydra.run.dir={out}", "tracker=apf_prior", "frames=4", "data=walk_small",
+                      "tracker.particles=6", "tracker.layers=2")
             assert r.returncode == 0, r.stderr[-3000:]
             done.touch()
     return out
@@ -126,12 +125,12 @@ PEOPLE_RUN = ["tracker=marker_people", "data=crowd", "data.frames=20", "frames=6
 def people_run(tmp_path_factory) -> Path:
     """A short several-people run directory (:data:`PEOPLE_RUN`, recording on; ~50 s): a
     ``mocap-people-v1`` motion.npz, metrics.json with per-person scores, recording.rrd. Read only
-    (the export, replay and rescore tests copy it to change it); shared by xdist workers as
-    :func:`short_run` is."""
+    (the export, replay and rescore tests copy it to change it); shared by xdist workers (and
+    tracked in the process) as :func:`short_run` is."""
     import fcntl
     import os
-    import subprocess
-    import sys
+
+    from tests.cli.in_process import mocap
 
     root = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
@@ -140,8 +139,7 @@ def people_run(tmp_path_factory) -> Path:
     with open(root / "people_run.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.is_file():
-            r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={out}",
-                                *PEOPLE_RUN], capture_output=True, text=True, cwd=REPO, timeout=900)
+            r = mocap("track", f"hydra.run.dir={out}", *PEOPLE_RUN)
             assert r.returncode == 0, r.stderr[-3000:]
             done.touch()
     return out

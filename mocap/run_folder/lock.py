@@ -3,7 +3,8 @@ held for the whole run (tracking, resume, sealing) and by ``mocap rescore`` whil
 run. A second process on the same folder is refused at once, in one line naming the holder (pid,
 host, start time, command), instead of mixing its files with the first one's. The operating
 system drops the lock when the holder exits, however it exits (a killed run leaves no stale
-lock; the holder removes the file when done, a killed one leaves it, unlocked, with its line).
+lock; the holder removes the file when done, a killed one leaves it, unlocked, with its line; a
+``mocap`` process ended by its interrupt watchdog removes it first: :func:`drop_files`).
 The manifest is written only by the holder
 (:func:`require_held`, called by :func:`mocap.run_folder.manifest.write_manifest`).
 
@@ -26,7 +27,7 @@ from pathlib import Path
 
 #: the lock file, inside the run folder
 LOCK = ".mocap.lock"
-_held: dict[Path, int] = {}        # folders this process holds -> the lock file's descriptor
+_held: dict[Path, tuple[Path, int]] = {}   # folders this process holds -> (lock file, its descriptor)
 
 
 class RunFolderBusy(FileExistsError):
@@ -61,7 +62,7 @@ def run_lock(out_dir: str | os.PathLike) -> Iterator[Path]:
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "command": " ".join(sys.argv)[:500]}
         os.ftruncate(fd, 0)
         os.pwrite(fd, json.dumps(info).encode(), 0)
-        _held[key] = fd
+        _held[key] = (path, fd)
         yield path
     finally:
         _held.pop(key, None)
@@ -99,6 +100,18 @@ def _acquire(out_dir: Path, path: Path) -> int:
             return fd
         os.close(fd)            # the holder before us removed it as we locked it: again
     raise RunFolderBusy(f"{path}: the lock file keeps changing; refused")
+
+
+def drop_files() -> None:
+    """Remove the lock files of every folder this process holds, the locks kept: for a process
+    about to end without running its clean-up (``os._exit``: the interrupt watchdog of
+    :mod:`mocap_cli.interrupt`), which would leave them behind, unlocked. A file that is no
+    longer the one this process locked (its block already ended) is left alone. Safe from
+    another thread than the one holding the locks."""
+    for path, fd in list(_held.values()):
+        with contextlib.suppress(OSError):
+            if os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino:
+                path.unlink()
 
 
 def holds(out_dir: str | os.PathLike) -> bool:

@@ -251,9 +251,10 @@ def test_ctrl_c_during_detection_leaves_no_stage_record(tmp_path):
     assert "[detect] done" not in stdout
     assert json.loads((out / "capture.json").read_text())["stages"] == {}      # nothing to trust
     assert not (out / "track").exists() and not (out / "export").exists()
+    assert not (out / ".mocap.lock").exists()       # removed, by the watchdog too if it ended the process
     from mocap.run_folder.lock import run_lock
 
-    with run_lock(out):             # not held any more (a process ended by the watchdog leaves the file)
+    with run_lock(out):             # and not held any more
         pass
 
 

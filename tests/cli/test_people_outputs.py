@@ -15,6 +15,7 @@ import pytest
 from mocap.export.people_motion import load_people_motion
 from mocap.run_folder.manifest import manifest_problem
 from mocap.run_folder.people import several_people_evidence
+from tests.cli.in_process import mocap as in_process
 from tests.cli.people_data import crowd_gt_folder
 from tests.conftest import PEOPLE_RUN
 
@@ -23,6 +24,8 @@ FAST = [o for o in PEOPLE_RUN if o.startswith("tracker.")]
 
 
 def mocap(*args: str) -> subprocess.CompletedProcess:
+    """``mocap *args`` as a process: the tracks, whose warnings on stderr are asserted (in the
+    test's process pytest would catch them)."""
     return subprocess.run([sys.executable, "-m", "mocap_cli", *args], capture_output=True, text=True,
                           cwd=REPO, timeout=600)
 
@@ -67,18 +70,18 @@ def test_a_people_run_with_a_ground_truth_file_is_scored_per_person(body, tmp_pa
     assert "4 of 5 people tracked, 0 identity switches, MPJPE" in r.stdout
     assert "several people in the data" not in r.stderr           # tracked as several: no flag
     # rescore: the same figures from the motion file, the folder still a complete run
-    r = mocap("rescore", str(run))
+    r = in_process("rescore", str(run))
     assert r.returncode == 0 and "identity switches 0 -> 0" in r.stdout, r.stderr[-2000:]
     again = json.loads((run / "metrics.json").read_text())
     assert again["per_person"] == m["per_person"]
     assert again["rescored"]["previous"]["mpjpe_mm"] == m["mpjpe_mm"]
     assert manifest_problem(run) is None
     # replay: the recording's summary, then every person of the motion
-    r = mocap("replay", str(run), "--summary")
+    r = in_process("replay", str(run), "--summary")
     assert r.returncode == 0 and "people motion: 6 frames" in r.stdout
     assert all(f"  person {i}: " in r.stdout for i in ids)
     # export: every person of the file
-    r = mocap("export", str(run), "--format", "bvh")
+    r = in_process("export", str(run), "--format", "bvh")
     assert r.returncode == 0 and all((run / f"motion_p{i}.bvh").is_file() for i in ids), r.stderr
 
 
@@ -89,7 +92,7 @@ def test_the_crowds_own_truth_is_rescored_per_person(people_run, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(people_run, run)
     before = json.loads((run / "metrics.json").read_text())
-    r = mocap("rescore", str(run))
+    r = in_process("rescore", str(run))
     assert r.returncode == 0, r.stderr[-2000:]
     after = json.loads((run / "metrics.json").read_text())
     assert after["per_person"] == before["per_person"] and after["assignment"] == before["assignment"]

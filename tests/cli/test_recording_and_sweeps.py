@@ -8,12 +8,17 @@ from pathlib import Path
 import pytest
 
 from mocap.recording.reader import read_recording
+from tests.cli.in_process import mocap
 
 REPO = Path(__file__).resolve().parents[2]
 FAST = ["data=walk_small", "tracker.particles=6", "tracker.layers=2"]
 
 
-def track(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
+def track(*args: str, cwd: Path = REPO, process: bool = True) -> subprocess.CompletedProcess:
+    """``mocap track *args``: a process of its own, or in this process (``process=False``,
+    :mod:`tests.cli.in_process`) where what it writes is the point."""
+    if not process:
+        return mocap("track", *args, cwd=cwd)
     return subprocess.run([sys.executable, "-m", "mocap_cli", "track", *args],
                           capture_output=True, text=True, cwd=cwd, timeout=900)
 
@@ -21,7 +26,7 @@ def track(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("run")
-    r = track(f"hydra.run.dir={d}", "tracker=apf_prior", "frames=4", *FAST)
+    r = track(f"hydra.run.dir={d}", "tracker=apf_prior", "frames=4", *FAST, process=False)
     assert r.returncode == 0, r.stderr[-3000:]
     return d
 
@@ -63,7 +68,8 @@ def test_replay_prints_a_headless_summary(run_dir):
 
 
 def test_recording_can_be_switched_off(tmp_path):
-    r = track(f"hydra.run.dir={tmp_path}", "tracker=apf_prior", "frames=2", "recording.enabled=false", *FAST)
+    r = track(f"hydra.run.dir={tmp_path}", "tracker=apf_prior", "frames=2", "recording.enabled=false", *FAST,
+              process=False)
     assert r.returncode == 0, r.stderr[-2000:]
     assert (tmp_path / "metrics.json").is_file() and not list(tmp_path.glob("*.rrd*"))
 
@@ -99,6 +105,6 @@ def test_multirun_two_trackers_two_seeds_then_resume_and_ablate(tmp_path):
 
 
 def test_missing_data_path_fails_before_any_work(tmp_path):
-    r = track(f"hydra.run.dir={tmp_path}", "data=folder", "data.path=/nonexistent/seq")
+    r = track(f"hydra.run.dir={tmp_path}", "data=folder", "data.path=/nonexistent/seq", process=False)
     assert r.returncode != 0 and "data path not found: /nonexistent/seq" in r.stderr
     assert not (tmp_path / "metrics.json").exists() and not list(tmp_path.glob("*.rrd*"))

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tests.cli.in_process import mocap
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -23,12 +25,11 @@ def naive_frames_to_recover(errors, at, skipped, window, factor):
 
 
 def test_recovery_writes_the_track_outputs_and_consistent_figures(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "mocap_cli", "recovery", f"hydra.run.dir={tmp_path}",
-                        "data=walk_small", "frames=8", "tracker=local", "tracker.iterations=3",
-                        "++tracker.sift.enabled=false", "recording.particles=false",
-                        "recovery.skip_at=2", "recovery.skip=2", "recovery.perturb_at=5",
-                        "recovery.window=2", "recovery.perturb_deg=20"],
-                       capture_output=True, text=True, cwd=REPO, timeout=600)
+    r = mocap("recovery", f"hydra.run.dir={tmp_path}",           # in this process: its outputs are the point
+              "data=walk_small", "frames=8", "tracker=local", "tracker.iterations=3",
+              "++tracker.sift.enabled=false", "recording.particles=false",
+              "recovery.skip_at=2", "recovery.skip=2", "recovery.perturb_at=5",
+              "recovery.window=2", "recovery.perturb_deg=20")
     assert r.returncode == 0, r.stderr[-3000:]
     for name in ("metrics.json", "motion.npz", "recording.rrd"):
         assert (tmp_path / name).is_file(), name

@@ -20,6 +20,7 @@ import pytest
 
 from mocap.run_folder.manifest import manifest_problem, write_manifest
 from mocap.run_folder.resume import clear_outputs, config_changes, restore_previous, run_state, set_aside
+from tests.cli.in_process import mocap
 
 REPO = Path(__file__).resolve().parents[2]
 FAST = ["tracker=apf", "data=walk_small", "frames=2", "tracker.particles=4", "tracker.layers=2",
@@ -29,9 +30,9 @@ TRACKED_A_FRAME = re.compile(r"\b[1-9]\d*/20\b")
 
 
 def track(run_dir: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mocap_cli", "track",
-                           f"hydra.run.dir={run_dir}", *FAST, *args],
-                          capture_output=True, text=True, cwd=REPO, timeout=600)
+    """``mocap track`` in this process (:mod:`tests.cli.in_process`): what resume writes and
+    prints; the interrupted re-runs below are processes of their own (signals)."""
+    return mocap("track", f"hydra.run.dir={run_dir}", *FAST, *args)
 
 
 def complete(d: Path, config: dict, threads=None, motion: bytes = b"motion") -> Path:
@@ -187,10 +188,10 @@ def test_an_interrupted_rerun_is_never_taken_for_the_new_run(old_run, sig, tmp_p
 
 
 def sweep(sweep_dir: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mocap_cli", "track", "--multirun", "hydra/launcher=basic",
-                           f"hydra.sweep.dir={sweep_dir}", *FAST, "recording.enabled=false",
-                           "skip_complete=true", *args],
-                          capture_output=True, text=True, cwd=REPO, timeout=600)
+    """``mocap track --multirun`` (Hydra's basic launcher: the jobs one after the other) in this
+    process."""
+    return mocap("track", "--multirun", "hydra/launcher=basic", f"hydra.sweep.dir={sweep_dir}", *FAST,
+                 "recording.enabled=false", "skip_complete=true", *args)
 
 
 def ran(r: subprocess.CompletedProcess) -> list[str]:

@@ -1,7 +1,5 @@
 """mocap track end to end: every tracker for two frames, and its metrics.json."""
 
-import contextlib
-import io
 import json
 import subprocess
 import sys
@@ -11,6 +9,7 @@ import numpy as np
 import pytest
 
 from mocap.trackers.presets import PRESETS
+from tests.cli.in_process import mocap
 
 REPO = Path(__file__).resolve().parents[2]
 # several people (marker_people) write other metrics: tests/cli/test_track_people.py
@@ -28,15 +27,7 @@ def run_track(tmp_path: Path, *overrides: str, process: bool = False) -> subproc
     if process:
         return subprocess.run([sys.executable, "-m", "mocap_cli", *args],
                               capture_output=True, text=True, cwd=REPO, timeout=600)
-    from mocap_cli.main import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.chdir(REPO), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(args)
-        except SystemExit as exc:           # Hydra's own errors exit
-            code = exc.code if isinstance(exc.code, int) else 1
-    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
+    return mocap(*args)
 
 
 # small budgets per tracker family, and the energy evaluations per frame they imply

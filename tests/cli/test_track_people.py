@@ -12,6 +12,7 @@ import pytest
 from mocap.export.motion import MotionFileError, load_motion
 from mocap.export.people_motion import load_people_motion
 from mocap.recording.reader import read_recording
+from tests.cli.in_process import mocap
 
 REPO = Path(__file__).resolve().parents[2]
 FAST = ["tracker.particles=20", "tracker.layers=3", "tracker.init.particles=60", "tracker.init.passes=2",
@@ -51,7 +52,7 @@ def test_the_crowd_is_tracked_person_by_person(tmp_path):
     assert {f"/world/people/{i}/skeleton" for i in m["people"]} <= entities     # one entity (colour) each
 
 
-@pytest.mark.slow           # ~10 s each on a loaded machine: Hydra in a subprocess
+@pytest.mark.slow           # the crowd is made before it is refused (~1 CPU s each, in this process)
 @pytest.mark.parametrize(("overrides", "message"), [
     (["data=crowd", "init.mode=gt_noise"], "has no ground-truth pose chi: use init.mode=tracker"),
     (["data=walk_markers_small", "init.mode=tracker"], "has no skeleton grouping (Detections.person)"),
@@ -59,6 +60,6 @@ def test_the_crowd_is_tracked_person_by_person(tmp_path):
      "setting people.confirm_frames = 0 is out of range"),
 ])
 def test_what_it_refuses_is_said_in_one_line(tmp_path, overrides, message):
-    r = run_track(tmp_path, "tracker=marker_people", *overrides)
+    r = mocap("track", f"hydra.run.dir={tmp_path}", "tracker=marker_people", *overrides)   # in this process
     assert r.returncode != 0 and message in r.stderr
     assert "Traceback" not in r.stderr and not (tmp_path / "metrics.json").exists()

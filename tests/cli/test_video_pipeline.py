@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import pytest
 
 from mocap.video.segmentation import iou, segment_sequence
 from mocap.video.sequence import load_video_sequence
+from tests.cli.in_process import mocap
 
 REPO = Path(__file__).resolve().parents[2]
 CANDIDATES = [REPO.parent / "shared" / "data" / "pose2sim-demo",
@@ -28,9 +28,12 @@ pytestmark = [pytest.mark.skipif(DEMO is None, reason="Pose2Sim demo not present
 
 
 def run(command: str, *overrides: str) -> subprocess.CompletedProcess:
-    out = subprocess.run([sys.executable, "-m", "mocap_cli", command, *overrides],
-                         capture_output=True, text=True, cwd=REPO, timeout=600,
-                         env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+    """``mocap <command> *overrides`` in this process (:mod:`tests.cli.in_process`): what it
+    writes is the point; one BLAS thread, as the process was given."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        out = mocap(command, *overrides)
     assert out.returncode == 0, out.stderr[-3000:]
     return out
 

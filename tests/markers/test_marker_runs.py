@@ -10,14 +10,16 @@ from pathlib import Path
 
 import pytest
 
+from tests.cli.in_process import mocap
+
 REPO = Path(__file__).resolve().parents[2]
 DEMO = Path(os.environ.get("MOCAP_SHARED_DATA") or REPO.parent / "shared" / "data") / "pose2sim-demo"
 
 
 def run_track(tmp_path: Path, *overrides: str) -> dict:
-    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={tmp_path}",
-                        "tracker=marker_apf", "recording.enabled=false", *overrides],
-                       capture_output=True, text=True, cwd=REPO, timeout=300)
+    """The run's metrics (``mocap track`` in this process: :mod:`tests.cli.in_process`)."""
+    r = mocap("track", f"hydra.run.dir={tmp_path}", "tracker=marker_apf", "recording.enabled=false",
+              *overrides)
     assert r.returncode == 0, r.stderr[-3000:]
     return json.loads((tmp_path / "metrics.json").read_text())
 

@@ -23,6 +23,7 @@ import pytest
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Needs, OnePerson, SearchBudget, Uncached, initial_estimate_of
 from mocap.trackers.diagnostics import StepDiagnostics
+from tests.cli.in_process import mocap as in_process
 
 REPO = Path(__file__).resolve().parents[2]
 CONF = Path(__file__).resolve().parent / "conf"
@@ -111,8 +112,10 @@ def mocap(*args: str) -> subprocess.CompletedProcess:
 
 
 def track(out: Path, *overrides: str) -> subprocess.CompletedProcess:
-    return mocap("track", "--config-dir", str(CONF), "tracker=drift", "data=walk_small", "frames=5",
-                 f"hydra.run.dir={out}", "recording.level=summary", *overrides)
+    """``mocap track --config-dir ...`` in this process (:mod:`tests.cli.in_process`: the same
+    argv through the entry point's function); export and ablate below run as processes."""
+    return in_process("track", "--config-dir", str(CONF), "tracker=drift", "data=walk_small", "frames=5",
+                      f"hydra.run.dir={out}", "recording.level=summary", *overrides)
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -91,6 +92,41 @@ def test_a_planted_link_as_lock_file_is_refused(tmp_path):
         with run_lock(run):
             pass
     assert (tmp_path / "elsewhere").read_text() == "keep"
+
+
+#: a ``mocap`` program holding a run folder's lock in a loop that swallows every Ctrl-C (as a
+#: library's native code that never returns to Python would keep it): only the interrupt watchdog
+#: (:mod:`mocap_cli.interrupt`, shortened to 0.5 s) ends it, with ``os._exit``
+SWALLOWED = """
+import sys, time
+from mocap_cli import interrupt
+interrupt.install()
+interrupt.GRACE_S = 0.5
+interrupt.set_command("mocap held")
+from mocap.run_folder.lock import run_lock
+with run_lock(sys.argv[1]):
+    print("held", flush=True)
+    while True:
+        try:
+            time.sleep(0.01)
+        except KeyboardInterrupt:
+            pass
+"""
+
+
+def test_a_process_ended_by_the_interrupt_watchdog_leaves_no_lock_file(tmp_path):
+    run = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-c", SWALLOWED, str(run)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=ENV, cwd=REPO)
+    assert proc.stdout.readline().strip() == "held", proc.stderr.read()[-2000:]
+    assert (run / LOCK).is_file()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err[-2000:]
+    assert err.strip().splitlines() == ["mocap held: interrupted (Ctrl-C); nothing more is written"]
+    assert not (run / LOCK).exists()                   # the watchdog removed it before os._exit
+    with run_lock(run):                                # and the lock went with the process
+        pass
 
 
 TRACK = ["tracker=apf", "data=walk_small", "data.frames=2", "tracker.particles=4", "tracker.layers=2",
