@@ -45,16 +45,13 @@ if HAVE_NUMBA:
                 np.empty(num_edges, np.uint8), np.empty((num_edges, 2), np.int32))
 
     @njit(cache=True, inline="always")
-    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, acc, height,
-                   width):
-        """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
-        near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
-        added at their column crossings. orient (F + 1,), flag (E,), live (E,), cols (E, 2)
-        are work arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max]
-        (r_max -1: nothing drawn)."""
+    def contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, width):
+        """The contour edges of one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front
+        of the near plane) that cross a column centre: returns n, with live[:n] those edges
+        and cols[:n] their columns [lo, hi) (lo < hi); orient (F + 1,) the faces'
+        orientations. orient, flag (E,), live (E,), cols (E, 2) are work arrays."""
         F = faces.shape[0]
         E = ea.shape[0]
-        K = fwd.shape[1]
         allvis = True
         for v in range(vs.shape[0]):
             if not vs[v]:
@@ -78,10 +75,6 @@ if HAVE_NUMBA:
                 rhs = (ys[b] - ys[a]) * (xs[d] - xs[a])
                 orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
         orient[F] = 0
-        c_min = width
-        c_max = 0
-        r_min = height + 1
-        r_max = -1
         # edges whose weight is not 0 (~10 %): flagged by a vectorised gather, then
         # compacted without a branch (a branch per edge mispredicts on every contour
         # edge); of those, the ones that cross a column centre (~60 %: at 256 px most
@@ -103,25 +96,53 @@ if HAVE_NUMBA:
             cols[n_cross, 0] = int(lo)
             cols[n_cross, 1] = int(hi)
             n_cross += hi != lo
+        return n_cross
+
+    @njit(cache=True, inline="always")
+    def edge_line(e, xs, ys, ea, eb, orient, fwd, bwd):
+        """Contour edge e's signed weight (the winding step where it crosses a column: its
+        faces' orientations, negated when it runs right to left) and its line in float64:
+        (w, xa, ya, slope). The crossing row in column j is :func:`crossing_row`."""
+        w = np.int64(0)                      # not 0: the flags kept only those
+        for k in range(fwd.shape[1]):
+            w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
+        xa = xs[ea[e]]
+        xb = xs[eb[e]]
+        if xa > xb:
+            w = -w
+        fxa = np.float64(xa)
+        fya = np.float64(ys[ea[e]])
+        slope = (np.float64(ys[eb[e]]) - fya) / (np.float64(xb) - fxa)
+        return w, fxa, fya, slope
+
+    @njit(cache=True, inline="always")
+    def crossing_row(j, fxa, fya, slope, height):
+        """The first row whose centre lies below the line at column j's centre, in [0, height]."""
+        yc = (j - fxa) * slope + fya
+        return int(np.ceil(min(max(yc, 0.0), np.float64(height))))
+
+    @njit(cache=True, inline="always")
+    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, acc, height,
+                   width):
+        """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
+        near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
+        added at their column crossings. orient (F + 1,), flag (E,), live (E,), cols (E, 2)
+        are work arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max]
+        (r_max -1: nothing drawn)."""
+        n_cross = contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols,
+                                width)
+        c_min = width
+        c_max = 0
+        r_min = height + 1
+        r_max = -1
         for i_cross in range(n_cross):
-            e = live[i_cross]
-            w = np.int64(0)                  # not 0: the flags kept only those
-            for k in range(K):
-                w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
-            xa = xs[ea[e]]
-            xb = xs[eb[e]]
-            if xa > xb:
-                w = -w
-            fxa = np.float64(xa)
-            fya = np.float64(ys[ea[e]])
-            slope = (np.float64(ys[eb[e]]) - fya) / (np.float64(xb) - fxa)
+            w, fxa, fya, slope = edge_line(live[i_cross], xs, ys, ea, eb, orient, fwd, bwd)
             j0 = cols[i_cross, 0]
             j1 = cols[i_cross, 1]
             c_min = min(c_min, j0)
             c_max = max(c_max, j1)
             for j in range(j0, j1):
-                yc = (j - fxa) * slope + fya
-                r = int(np.ceil(min(max(yc, 0.0), np.float64(height))))
+                r = crossing_row(j, fxa, fya, slope, height)
                 acc[r, j] += w
                 r_min = min(r_min, r)
                 r_max = max(r_max, r)
