@@ -37,6 +37,7 @@ if HAVE_NUMBA:
 
 _HV, _DIAG, _LONG = 65536, 91750, 143976        # cvRound(65536 * (1, 1.4f, 2.1969f))
 _INIT = 2**30       # 'far' (OpenCV: INT_MAX); any value > every real distance * 65536
+_H32, _D32, _L32 = np.int32(_HV), np.int32(_DIAG), np.int32(_LONG)   # int32 sums: no overflow
 
 
 def numba_available() -> bool:
@@ -100,8 +101,8 @@ if HAVE_NUMBA:
             for j in range(2, bw + 2):
                 a = min(min(up2[j - 1], up2[j + 1]), min(up1[j - 2], up1[j + 2]))
                 b = min(up1[j - 1], up1[j + 1])
-                cv = min(min(a + _LONG, b + _DIAG), up1[j] + _HV)
-                cand[j] = cv - j * hv
+                cv = min(min(np.int32(a + _L32), np.int32(b + _D32)), np.int32(up1[j] + _H32))
+                cand[j] = np.int32(cv - np.int32(j) * hv)
             while s < n_spans and spans[s, 0] == i:      # the seeds: 0
                 for j in range(spans[s, 1], spans[s, 2]):
                     cand[j] = -j * hv
@@ -119,8 +120,9 @@ if HAVE_NUMBA:
             for j in range(2, bw + 2):
                 a = min(min(dn2[j - 1], dn2[j + 1]), min(dn1[j - 2], dn1[j + 2]))
                 b = min(dn1[j - 1], dn1[j + 1])
-                cv = min(min(min(a + _LONG, b + _DIAG), dn1[j] + _HV), row[j])
-                cand[j] = cv + j * hv
+                cv = min(min(min(np.int32(a + _L32), np.int32(b + _D32)), np.int32(dn1[j] + _H32)),
+                         row[j])
+                cand[j] = np.int32(cv + np.int32(j) * hv)
             m = row[bw + 2] + (bw + 2) * hv
             ramp = (bw + 2) * hv
             for j in range(bw + 1, 1, -1):
