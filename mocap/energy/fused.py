@@ -206,7 +206,7 @@ if HAVE_NUMBA:
         for t in prange(nthreads):
             orient = np.zeros(F + 1, np.int32)
             live = np.empty(E, np.int32)
-            flag = np.empty(E, np.uint8)
+            weight = np.empty(E, np.int32)
             cols = np.empty((E, 2), np.int32)
             pos = np.zeros(width + 1, np.int64)
             rpos = np.empty(height + 2, np.int64)
@@ -232,7 +232,7 @@ if HAVE_NUMBA:
                     out[n] = np.nan
                     continue
                 bad[t] += project_view(X[p, c], cam[c], dist[c], has_dist, has_skew, xs, ys, vs)
-                n_cross = contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live,
+                n_cross = contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live,
                                         cols, width)
                 # the crossings sorted by column, then by row within each column: two stable
                 # counting sorts (by row, then by column; pos[j]: column j's next slot), no
@@ -266,7 +266,7 @@ if HAVE_NUMBA:
                     rpos[r] = 0
                 q = 0
                 for i in range(n_cross):
-                    w, fxa, fya, slope = edge_line(live[i], xs, ys, ea, eb, orient, fwd, bwd)
+                    w, fxa, fya, slope = edge_line(live[i], xs, ys, ea, eb, weight)
                     for j in range(cols[i, 0], cols[i, 1]):
                         r = crossing_row(j, fxa, fya, slope, height)
                         row1[q] = r

@@ -17,39 +17,40 @@ from mocap.compiled import HAVE_NUMBA, njit, prange
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def contour_flags(orient, fwd, bwd, flag):
-        """flag[e] = 1 where edge e's weight sum_k orient[fwd[e, k]] - orient[bwd[e, k]] is
-        not 0. orient is int32 so that the K == 1 and K == 2 loops vectorise (AVX2 gathers;
-        the general loop does not: 3x slower on the energy mesh, whose few non-manifold
-        edges make K 2)."""
+    def contour_weights(orient, fwd, bwd, weight):
+        """weight[e] = sum_k orient[fwd[e, k]] - orient[bwd[e, k]], edge e's winding step (0:
+        not a contour edge). orient is int32 so that the K == 1 and K == 2 loops vectorise
+        (AVX2 gathers; the general loop does not: 3x slower on the energy mesh, whose few
+        non-manifold edges make K 2)."""
         E, K = fwd.shape
         if K == 1:
             for e in range(E):
-                flag[e] = orient[fwd[e, 0]] != orient[bwd[e, 0]]
+                weight[e] = orient[fwd[e, 0]] - orient[bwd[e, 0]]
         elif K == 2:       # a few non-manifold edges (a decimated mesh): still vectorised
             for e in range(E):
-                flag[e] = orient[fwd[e, 0]] + orient[fwd[e, 1]] != orient[bwd[e, 0]] + orient[bwd[e, 1]]
+                weight[e] = orient[fwd[e, 0]] + orient[fwd[e, 1]] - orient[bwd[e, 0]] - orient[bwd[e, 1]]
         else:
             for e in range(E):
                 w = 0
                 for k in range(K):
                     w += orient[fwd[e, k]] - orient[bwd[e, k]]
-                flag[e] = w != 0
+                weight[e] = w
 
     @njit(cache=True, inline="always")
     def scan_buffers(num_faces, num_edges, height, width):
         """Work arrays of :func:`scan_edges` and the row sums, one set per thread: orient,
-        acc (zeroed), run (the running column sums), live, flag, cols."""
+        acc (zeroed), run (the running column sums), live, weight, cols."""
         return (np.zeros(num_faces + 1, np.int32), np.zeros((height + 1, width), np.int32),
                 np.zeros(width, np.int32), np.empty(num_edges, np.int32),
-                np.empty(num_edges, np.uint8), np.empty((num_edges, 2), np.int32))
+                np.empty(num_edges, np.int32), np.empty((num_edges, 2), np.int32))
 
     @njit(cache=True, inline="always")
-    def contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, width):
+    def contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live, cols, width):
         """The contour edges of one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front
         of the near plane) that cross a column centre: returns n, with live[:n] those edges
         and cols[:n] their columns [lo, hi) (lo < hi); orient (F + 1,) the faces'
-        orientations. orient, flag (E,), live (E,), cols (E, 2) are work arrays."""
+        orientations and weight (E,) the edges' winding steps (:func:`contour_weights`).
+        orient, weight, live (E,), cols (E, 2) are work arrays."""
         F = faces.shape[0]
         E = ea.shape[0]
         allvis = True
@@ -75,16 +76,16 @@ if HAVE_NUMBA:
                 rhs = (ys[b] - ys[a]) * (xs[d] - xs[a])
                 orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
         orient[F] = 0
-        # edges whose weight is not 0 (~10 %): flagged by a vectorised gather, then
+        # edges whose weight is not 0 (~10 %): weighed by a vectorised gather, then
         # compacted without a branch (a branch per edge mispredicts on every contour
         # edge); of those, the ones that cross a column centre (~60 %: at 256 px most
         # contour edges are short) compacted the same way with their columns [lo, hi),
         # then scan-converted (1.2x faster than a branch on hi == lo in that loop)
-        contour_flags(orient, fwd, bwd, flag)
+        contour_weights(orient, fwd, bwd, weight)
         n_live = 0
         for e in range(E):
             live[n_live] = e
-            n_live += flag[e]
+            n_live += weight[e] != 0
         n_cross = 0
         for i_live in range(n_live):
             e = live[i_live]
@@ -99,13 +100,11 @@ if HAVE_NUMBA:
         return n_cross
 
     @njit(cache=True, inline="always")
-    def edge_line(e, xs, ys, ea, eb, orient, fwd, bwd):
+    def edge_line(e, xs, ys, ea, eb, weight):
         """Contour edge e's signed weight (the winding step where it crosses a column: its
-        faces' orientations, negated when it runs right to left) and its line in float64:
-        (w, xa, ya, slope). The crossing row in column j is :func:`crossing_row`."""
-        w = np.int64(0)                      # not 0: the flags kept only those
-        for k in range(fwd.shape[1]):
-            w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
+        weight, negated when it runs right to left) and its line in float64: (w, xa, ya,
+        slope). The crossing row in column j is :func:`crossing_row`."""
+        w = np.int64(weight[e])
         xa = xs[ea[e]]
         xb = xs[eb[e]]
         if xa > xb:
@@ -122,21 +121,21 @@ if HAVE_NUMBA:
         return int(np.ceil(min(max(yc, 0.0), np.float64(height))))
 
     @njit(cache=True, inline="always")
-    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, acc, height,
+    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live, cols, acc, height,
                    width):
         """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
         near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
-        added at their column crossings. orient (F + 1,), flag (E,), live (E,), cols (E, 2)
+        added at their column crossings. orient (F + 1,), weight (E,), live (E,), cols (E, 2)
         are work arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max]
         (r_max -1: nothing drawn)."""
-        n_cross = contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols,
+        n_cross = contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live, cols,
                                 width)
         c_min = width
         c_max = 0
         r_min = height + 1
         r_max = -1
         for i_cross in range(n_cross):
-            w, fxa, fya, slope = edge_line(live[i_cross], xs, ys, ea, eb, orient, fwd, bwd)
+            w, fxa, fya, slope = edge_line(live[i_cross], xs, ys, ea, eb, weight)
             j0 = cols[i_cross, 0]
             j1 = cols[i_cross, 1]
             c_min = min(c_min, j0)
@@ -155,12 +154,12 @@ if HAVE_NUMBA:
         F = faces.shape[0]
         E = ea.shape[0]
         for t in prange(nthreads):
-            orient, acc, run, live, flag, cols = scan_buffers(F, E, height, width)
+            orient, acc, run, live, weight, cols = scan_buffers(F, E, height, width)
             for n in range(t, N, nthreads):
                 mask = out[n]
                 mask[:, :] = False
                 c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd,
-                                                        bwd, orient, flag, live, cols, acc,
+                                                        bwd, orient, weight, live, cols, acc,
                                                         height, width)
                 if r_max < 0:
                     continue
