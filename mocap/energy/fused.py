@@ -7,18 +7,23 @@ Per particle-view the kernel
    per-thread buffers, so no (P, C, V, 2) pixel array is written and re-read;
 1. orients the projected triangles and weights the mesh edges exactly like the scanline
    rasterizer (:mod:`mocap.render._scanline`: nonzero winding of the contour edges, same
-   float arithmetic, same pixel-centre rule, same depth culling), scan-converts the edges
-   into an accumulation image and sums it down the rows; while summing it adds the observed
-   distance transform under every covered pixel (term 1 of the chamfer) and marks the
-   covered pixels inside the observed silhouette's grown box;
-2. takes the 5x5 chamfer distance transform of that box (OpenCV's ``DIST_L2`` /
-   ``DIST_MASK_5`` algorithm: Borgefors weights 1, 1.4, 2.1969 in 16-bit fixed point, two
-   passes) and sums it over the observed silhouette's pixels (term 2),
+   float arithmetic, same pixel-centre rule, same depth culling) and computes the edges'
+   column crossings; instead of scattering them into an image and summing it down the rows,
+   it sorts them by column and row (two counting sorts) and walks each column's winding
+   number: the covered pixels come as runs of rows. Term 1 of the chamfer (the observed
+   distance transform under the model) is then a difference of two column prefix sums per
+   run (computed once per target), exact in float64; the runs inside the observed
+   silhouette's grown box are term 2's seeds;
+2. takes the 5x5 chamfer distance transform (OpenCV's ``DIST_L2`` / ``DIST_MASK_5``
+   algorithm: Borgefors weights 1, 1.4, 2.1969 in 16-bit fixed point, two passes) of the
+   bounding box of those seeds and the observed pixels, transposed so that each run is a
+   run of one row, and sums it over the observed silhouette's pixels (term 2),
 
 so no mask of (P, C, h, w) is ever stored and no Python loop runs per particle. The result
-equals :func:`mocap.energy.silhouette.chamfer_energy` on the scanline masks up to float
-summation order (tested), i.e. the energy of the numpy path, which stays as the fallback
-where numba cannot be imported (said once, as a warning).
+is Eq. 11 summed pixel by pixel on the scanline masks bit for bit (tested), and equals
+:func:`mocap.energy.silhouette.chamfer_energy` up to float summation order (tested), i.e.
+the energy of the numpy path, which stays as the fallback where numba cannot be imported
+(said once, as a warning).
 
 Particle-views are spread over numba's threads (``prange``); :func:`mocap.threads.thread_budget`
 sets how many.
@@ -133,6 +138,18 @@ if HAVE_NUMBA:
         for k in range(len(obs_r)):
             total += np.float32(tmp[obs_r[k] + 2 - i0, obs_c[k] + 2 - j0]) * np.float32(1.0 / 65536.0)
         return total
+
+    @njit(cache=True)
+    def _column_prefix_sums(dt, out):
+        """dt (C, h, w) float32 -> out (C, h + 1, w) float64: out[c, r, j] = sum of dt[c, :r, j],
+        row by row; exact for distance transforms (see :func:`_fused_energy`)."""
+        C, h, w = dt.shape
+        for c in range(C):
+            for j in range(w):
+                out[c, 0, j] = 0.0
+            for r in range(h):
+                for j in range(w):
+                    out[c, r + 1, j] = out[c, r, j] + np.float64(dt[c, r, j])
 
     @njit(cache=True, inline="always")
     def project_view(X, cam, dist, has_dist, has_skew, xs, ys, vs):
@@ -377,6 +394,7 @@ class FusedSilhouetteEnergy:
         self.faces, self.edge_arrays = get_rasterizer(faces, num_vertices).kernel_arrays
         self.num_vertices = int(num_vertices)
         self._obs_key = None
+        self._colsum = np.empty((0, 0, 0))
 
     def _observed(self, target) -> tuple[np.ndarray, ...]:
         """Observed pixels of every view in box coordinates, column by column (rows, cols,
@@ -396,8 +414,10 @@ class FusedSilhouetteEnergy:
                 if len(r):
                     obs_box[c] = (r.min(), r.max() + 1, q.min(), q.max() + 1)
             C, h, w = target.dt.shape
-            colsum = np.zeros((C, h + 1, w))
-            np.cumsum(target.dt, axis=1, dtype=np.float64, out=colsum[:, 1:])
+            if self._colsum.shape != (C, h + 1, w):
+                self._colsum = np.empty((C, h + 1, w))      # reused: a fresh one page-faults
+            colsum = self._colsum
+            _column_prefix_sums(target.dt, colsum)
             self._obs = (np.concatenate(rows), np.concatenate(cols), np.asarray(start, np.int64),
                          obs_box, colsum)
             self._obs_key = key

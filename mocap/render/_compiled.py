@@ -4,8 +4,10 @@ silhouette energy (:mod:`mocap.energy.fused`) and the mask rasterizer here.
 Same algorithm and float arithmetic as :mod:`mocap.render._scanline` (read its docstring):
 each face's projected orientation, the edges whose faces' orientations do not cancel, their
 column crossings scattered into an accumulation image; summing that image down the rows
-gives each pixel's winding number, nonzero inside the silhouette. Per image, not batched, so
-no (E, N) arrays: the kernels loop over particle-views in parallel instead.
+gives each pixel's winding number, nonzero inside the silhouette (the fused energy sorts the
+same crossings per column instead: :func:`contour_edges`, :func:`edge_line` and
+:func:`crossing_row` are its parts of :func:`scan_edges`). Per image, not batched, so no
+(E, N) arrays: the kernels loop over particle-views in parallel instead.
 """
 
 from __future__ import annotations
