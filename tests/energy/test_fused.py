@@ -351,3 +351,12 @@ def test_fused_energy_is_the_pixel_by_pixel_sum_bit_for_bit(dtype, request):
                 e2 = penalty
             assert got[p, c] == e1 + e2, (p, c)
     assert seeded >= 6
+
+
+def test_column_prefix_sums_are_numpys_cumsum_in_float64_with_a_zero_first_row():
+    rng = np.random.default_rng(2)
+    dt = np.sqrt(rng.integers(0, 90**2, (3, 17, 11))).astype(np.float32)
+    got = np.full((3, 18, 11), np.nan)
+    fused._column_prefix_sums(dt, got)
+    want = np.concatenate([np.zeros((3, 1, 11)), np.cumsum(dt.astype(np.float64), axis=1)], axis=1)
+    np.testing.assert_array_equal(got, want)
