@@ -4,8 +4,10 @@ silhouette energy (:mod:`mocap.energy.fused`) and the mask rasterizer here.
 Same algorithm and float arithmetic as :mod:`mocap.render._scanline` (read its docstring):
 each face's projected orientation, the edges whose faces' orientations do not cancel, their
 column crossings scattered into an accumulation image; summing that image down the rows
-gives each pixel's winding number, nonzero inside the silhouette. Per image, not batched, so
-no (E, N) arrays: the kernels loop over particle-views in parallel instead.
+gives each pixel's winding number, nonzero inside the silhouette (the fused energy sorts the
+same crossings per column instead: :func:`contour_edges`, :func:`edge_line` and
+:func:`crossing_row` are its parts of :func:`scan_edges`). Per image, not batched, so no
+(E, N) arrays: the kernels loop over particle-views in parallel instead.
 """
 
 from __future__ import annotations
@@ -17,44 +19,42 @@ from mocap.compiled import HAVE_NUMBA, njit, prange
 if HAVE_NUMBA:
 
     @njit(cache=True)
-    def contour_flags(orient, fwd, bwd, flag):
-        """flag[e] = 1 where edge e's weight sum_k orient[fwd[e, k]] - orient[bwd[e, k]] is
-        not 0. orient is int32 so that the K == 1 and K == 2 loops vectorise (AVX2 gathers;
-        the general loop does not: 3x slower on the energy mesh, whose few non-manifold
-        edges make K 2)."""
+    def contour_weights(orient, fwd, bwd, weight):
+        """weight[e] = sum_k orient[fwd[e, k]] - orient[bwd[e, k]], edge e's winding step (0:
+        not a contour edge). orient is int32 so that the K == 1 and K == 2 loops vectorise
+        (AVX2 gathers; the general loop does not: 3x slower on the energy mesh, whose few
+        non-manifold edges make K 2)."""
         E, K = fwd.shape
         if K == 1:
             for e in range(E):
-                flag[e] = orient[fwd[e, 0]] != orient[bwd[e, 0]]
+                weight[e] = orient[fwd[e, 0]] - orient[bwd[e, 0]]
         elif K == 2:       # a few non-manifold edges (a decimated mesh): still vectorised
             for e in range(E):
-                flag[e] = orient[fwd[e, 0]] + orient[fwd[e, 1]] != orient[bwd[e, 0]] + orient[bwd[e, 1]]
+                weight[e] = orient[fwd[e, 0]] + orient[fwd[e, 1]] - orient[bwd[e, 0]] - orient[bwd[e, 1]]
         else:
             for e in range(E):
                 w = 0
                 for k in range(K):
                     w += orient[fwd[e, k]] - orient[bwd[e, k]]
-                flag[e] = w != 0
+                weight[e] = w
 
     @njit(cache=True, inline="always")
     def scan_buffers(num_faces, num_edges, height, width):
         """Work arrays of :func:`scan_edges` and the row sums, one set per thread: orient,
-        acc (zeroed), run (the running column sums), live, flag, cols."""
+        acc (zeroed), run (the running column sums), live, weight, cols."""
         return (np.zeros(num_faces + 1, np.int32), np.zeros((height + 1, width), np.int32),
                 np.zeros(width, np.int32), np.empty(num_edges, np.int32),
-                np.empty(num_edges, np.uint8), np.empty((num_edges, 2), np.int32))
+                np.empty(num_edges, np.int32), np.empty((num_edges, 2), np.int32))
 
     @njit(cache=True, inline="always")
-    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, flag, live, cols, acc, height,
-                   width):
-        """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
-        near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
-        added at their column crossings. orient (F + 1,), flag (E,), live (E,), cols (E, 2)
-        are work arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max]
-        (r_max -1: nothing drawn)."""
+    def contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live, cols, width):
+        """The contour edges of one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front
+        of the near plane) that cross a column centre: returns n, with live[:n] those edges
+        and cols[:n] their columns [lo, hi) (lo < hi); orient (F + 1,) the faces'
+        orientations and weight (E,) the edges' winding steps (:func:`contour_weights`).
+        orient, weight, live (E,), cols (E, 2) are work arrays."""
         F = faces.shape[0]
         E = ea.shape[0]
-        K = fwd.shape[1]
         allvis = True
         for v in range(vs.shape[0]):
             if not vs[v]:
@@ -78,20 +78,16 @@ if HAVE_NUMBA:
                 rhs = (ys[b] - ys[a]) * (xs[d] - xs[a])
                 orient[f] = np.int32(lhs > rhs) - np.int32(lhs < rhs)
         orient[F] = 0
-        c_min = width
-        c_max = 0
-        r_min = height + 1
-        r_max = -1
-        # edges whose weight is not 0 (~10 %): flagged by a vectorised gather, then
+        # edges whose weight is not 0 (~10 %): weighed by a vectorised gather, then
         # compacted without a branch (a branch per edge mispredicts on every contour
         # edge); of those, the ones that cross a column centre (~60 %: at 256 px most
         # contour edges are short) compacted the same way with their columns [lo, hi),
         # then scan-converted (1.2x faster than a branch on hi == lo in that loop)
-        contour_flags(orient, fwd, bwd, flag)
+        contour_weights(orient, fwd, bwd, weight)
         n_live = 0
         for e in range(E):
             live[n_live] = e
-            n_live += flag[e]
+            n_live += weight[e] != 0
         n_cross = 0
         for i_live in range(n_live):
             e = live[i_live]
@@ -103,25 +99,51 @@ if HAVE_NUMBA:
             cols[n_cross, 0] = int(lo)
             cols[n_cross, 1] = int(hi)
             n_cross += hi != lo
+        return n_cross
+
+    @njit(cache=True, inline="always")
+    def edge_line(e, xs, ys, ea, eb, weight):
+        """Contour edge e's signed weight (the winding step where it crosses a column: its
+        weight, negated when it runs right to left) and its line in float64: (w, xa, ya,
+        slope). The crossing row in column j is :func:`crossing_row`."""
+        w = np.int64(weight[e])
+        xa = xs[ea[e]]
+        xb = xs[eb[e]]
+        if xa > xb:
+            w = -w
+        fxa = np.float64(xa)
+        fya = np.float64(ys[ea[e]])
+        slope = (np.float64(ys[eb[e]]) - fya) / (np.float64(xb) - fxa)
+        return w, fxa, fya, slope
+
+    @njit(cache=True, inline="always")
+    def crossing_row(j, fxa, fya, slope, height):
+        """The first row whose centre lies below the line at column j's centre, in [0, height]."""
+        yc = (j - fxa) * slope + fya
+        return int(np.ceil(min(max(yc, 0.0), np.float64(height))))
+
+    @njit(cache=True, inline="always")
+    def scan_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live, cols, acc, height,
+                   width):
+        """Scan-convert one projected mesh (pixels xs, ys (V,); vs (V,) vertex in front of the
+        near plane) into ``acc`` ((height + 1, width) int32, all 0 on entry): edge weights
+        added at their column crossings. orient (F + 1,), weight (E,), live (E,), cols (E, 2)
+        are work arrays. Returns the touched columns [c_min, c_max) and rows [r_min, r_max]
+        (r_max -1: nothing drawn)."""
+        n_cross = contour_edges(xs, ys, vs, faces, ea, eb, fwd, bwd, orient, weight, live, cols,
+                                width)
+        c_min = width
+        c_max = 0
+        r_min = height + 1
+        r_max = -1
         for i_cross in range(n_cross):
-            e = live[i_cross]
-            w = np.int64(0)                  # not 0: the flags kept only those
-            for k in range(K):
-                w += np.int64(orient[fwd[e, k]]) - np.int64(orient[bwd[e, k]])
-            xa = xs[ea[e]]
-            xb = xs[eb[e]]
-            if xa > xb:
-                w = -w
-            fxa = np.float64(xa)
-            fya = np.float64(ys[ea[e]])
-            slope = (np.float64(ys[eb[e]]) - fya) / (np.float64(xb) - fxa)
+            w, fxa, fya, slope = edge_line(live[i_cross], xs, ys, ea, eb, weight)
             j0 = cols[i_cross, 0]
             j1 = cols[i_cross, 1]
             c_min = min(c_min, j0)
             c_max = max(c_max, j1)
             for j in range(j0, j1):
-                yc = (j - fxa) * slope + fya
-                r = int(np.ceil(min(max(yc, 0.0), np.float64(height))))
+                r = crossing_row(j, fxa, fya, slope, height)
                 acc[r, j] += w
                 r_min = min(r_min, r)
                 r_max = max(r_max, r)
@@ -134,12 +156,12 @@ if HAVE_NUMBA:
         F = faces.shape[0]
         E = ea.shape[0]
         for t in prange(nthreads):
-            orient, acc, run, live, flag, cols = scan_buffers(F, E, height, width)
+            orient, acc, run, live, weight, cols = scan_buffers(F, E, height, width)
             for n in range(t, N, nthreads):
                 mask = out[n]
                 mask[:, :] = False
                 c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd,
-                                                        bwd, orient, flag, live, cols, acc,
+                                                        bwd, orient, weight, live, cols, acc,
                                                         height, width)
                 if r_max < 0:
                     continue

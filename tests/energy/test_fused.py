@@ -64,6 +64,22 @@ def test_fused_equals_brute_force_eq11(dtype, request):
             assert got[p, c] == pytest.approx(ref, rel=0.03, abs=0.05), (p, c)
 
 
+def _term2(seeds, obs_r, obs_c, i0=0, j0=0):
+    """The kernel's term 2 on a (bh, bw) seed mask given as its runs per row -> (the sum at
+    the observed pixels, the padded transform image)."""
+    bh, bw = seeds.shape
+    spans = []
+    for i in range(bh):
+        edges = np.flatnonzero(np.diff(np.r_[0, seeds[i].astype(np.int8), 0]))
+        spans += [(i + 2, a + 2, b + 2) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    spans = np.array(spans, np.int64).reshape(-1, 3)
+    tmp = np.full((bh + 7, bw + 9), -1, np.int32)          # larger than needed, any contents
+    fused._far_ring(tmp, bh, bw)
+    total = fused._chamfer_term2(tmp, bh, bw, spans, len(spans), np.asarray(obs_r, np.int64),
+                                 np.asarray(obs_c, np.int64), i0, j0)
+    return total, tmp[:bh + 4, :bw + 4]
+
+
 def test_fused_distance_transform_is_opencvs_5x5_chamfer():
     """Term 2 alone: one observed pixel per row of a box, seeds anywhere -> the same sum as
     cv2.distanceTransform(DIST_L2, DIST_MASK_5) read at those pixels."""
@@ -72,10 +88,8 @@ def test_fused_distance_transform_is_opencvs_5x5_chamfer():
         bh, bw = rng.integers(5, 40, 2)
         seeds = rng.random((bh, bw)) < 0.02
         seeds[rng.integers(bh), rng.integers(bw)] = True
-        tmp = np.full((bh + 4, bw + 4), fused._INIT, np.int32)
-        tmp[2:-2, 2:-2][seeds] = 0
         obs_r, obs_c = np.nonzero(rng.random((bh, bw)) < 0.3)
-        got = fused._chamfer_term2(tmp, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64), 0, 0)
+        got, _ = _term2(seeds, obs_r, obs_c)
         dt = cv2.distanceTransform((~seeds).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5)
         # equal up to the rounding of the weights (fixed point here, float in IPP builds)
         assert got == pytest.approx(float(dt[obs_r, obs_c].astype(np.float64).sum()), rel=1e-5)
@@ -127,15 +141,76 @@ def test_split_distance_transform_passes_equal_the_one_loop_algorithm_integer_fo
     rng = np.random.default_rng(7)
     for density in (0.002, 0.02, 0.3):
         bh, bw = rng.integers(3, 45, 2)
-        tmp = np.full((bh + 4, bw + 4), fused._INIT, np.int32)
-        tmp[2:-2, 2:-2][rng.random((bh, bw)) < density] = 0
-        tmp[2 + rng.integers(bh), 2 + rng.integers(bw)] = 0
-        want = _chamfer_one_loop(tmp, bh, bw)
-        got = tmp.copy()
+        seeds = rng.random((bh, bw)) < density
+        seeds[rng.integers(bh), rng.integers(bw)] = True
+        want = _chamfer_one_loop(_seeded(seeds), bh, bw)
         obs_r, obs_c = np.nonzero(np.ones((bh, bw), bool))
-        total = fused._chamfer_term2(got, bh, bw, obs_r.astype(np.int64), obs_c.astype(np.int64), 0, 0)
+        total, got = _term2(seeds, obs_r, obs_c)
         np.testing.assert_array_equal(got[2:-2, 2:-2], want[2:-2, 2:-2])
         assert total == pytest.approx(want[2:-2, 2:-2].sum() / 65536.0, rel=1e-6)
+
+
+def _seeded(seeds):
+    """The padded image of OpenCV's algorithm: 0 at the seeds, far elsewhere."""
+    tmp = np.full((seeds.shape[0] + 4, seeds.shape[1] + 4), fused._INIT, np.int32)
+    tmp[2:-2, 2:-2][seeds] = 0
+    return tmp
+
+
+def _blobs(rng, bh, bw):
+    """Seeds like a projected body: a few filled ellipses, some reaching the edges."""
+    yy, xx = np.mgrid[:bh, :bw]
+    seeds = np.zeros((bh, bw), bool)
+    for _ in range(rng.integers(1, 4)):
+        cy, cx = rng.uniform(0, bh), rng.uniform(0, bw)
+        ry, rx = rng.uniform(1, bh / 2), rng.uniform(1, bw / 3)
+        seeds |= ((yy - cy) / ry) ** 2 + ((xx - cx) / rx) ** 2 < 1
+    seeds[rng.integers(bh), rng.integers(bw)] = True
+    return seeds
+
+
+def test_distance_transform_of_the_transposed_seeds_is_the_transposed_transform():
+    """The kernel transforms term 2's window transposed (its seeds are runs down the model's
+    columns): the 5x5 mask is symmetric under transposition (LONG for (1, 2) and (2, 1)), and
+    the two passes give every pixel its shortest chamfer path, whatever the raster order, so
+    the integers equal the one-loop algorithm's on the untransposed image."""
+    rng = np.random.default_rng(11)
+    for density in (0.002, 0.02, 0.3, None):
+        bh, bw = rng.integers(3, 60, 2)
+        if density is None:
+            seeds = _blobs(rng, bh, bw)
+        else:
+            seeds = rng.random((bh, bw)) < density
+            seeds[rng.integers(bh), rng.integers(bw)] = True
+        want = _chamfer_one_loop(_seeded(seeds), bh, bw)[2:-2, 2:-2]
+        obs_c, obs_r = np.nonzero(np.ones((bw, bh), bool))
+        total, got = _term2(seeds.T, obs_c, obs_r)
+        np.testing.assert_array_equal(got[2:-2, 2:-2].T, want)
+        assert total == want.astype(np.float32).astype(np.float64).sum() / 65536.0
+
+
+def test_distance_transform_on_the_window_of_seeds_and_observed_pixels_is_the_whole_boxs():
+    """Term 2's window is the bounding box of the seeds and the observed pixels (a shortest
+    chamfer path is monotone, so it stays in the box of its ends): read at the observed
+    pixels, its transform equals the whole box's, integer for integer."""
+    rng = np.random.default_rng(5)
+    for _ in range(6):
+        bh, bw = rng.integers(20, 60, 2)
+        seeds = np.zeros((bh, bw), bool)
+        seeds[rng.integers(bh // 4, bh // 2):rng.integers(bh // 2 + 1, bh),
+              rng.integers(0, bw // 2):rng.integers(bw // 2 + 1, bw)] = True
+        obs = np.zeros((bh, bw), bool)
+        obs[rng.integers(0, bh // 2):rng.integers(bh // 2 + 1, bh - bh // 4),
+            rng.integers(bw // 4, bw // 2):rng.integers(bw // 2 + 1, bw)] = True
+        whole = _chamfer_one_loop(_seeded(seeds), bh, bw)[2:-2, 2:-2]
+        both = seeds | obs
+        rows, cols = np.flatnonzero(both.any(1)), np.flatnonzero(both.any(0))
+        i0, i1, j0, j1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+        assert (i1 - i0) * (j1 - j0) < bh * bw
+        obs_r, obs_c = np.nonzero(obs)
+        total, got = _term2(seeds[i0:i1, j0:j1], obs_r, obs_c, i0, j0)
+        np.testing.assert_array_equal(got[obs_r - i0 + 2, obs_c - j0 + 2], whole[obs_r, obs_c])
+        assert total == whole[obs_r, obs_c].astype(np.float32).astype(np.float64).sum() / 65536.0
 
 
 def test_fused_equals_the_numpy_path_on_a_mesh_with_non_manifold_edges(body):
@@ -246,3 +321,42 @@ def test_fused_equals_the_numpy_path_where_the_model_overhangs_the_box_on_every_
     a, b = compiled.per_view(chi, target), numpy_energy.per_view(chi, target)
     assert np.all(np.isfinite(a))
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("dtype", ["body", "body64"])
+def test_fused_energy_is_the_pixel_by_pixel_sum_bit_for_bit(dtype, request):
+    """Term 1 from column prefix sums over the covered runs and term 2 on the transposed
+    window are exact restructurings: the energies equal, bit for bit, Eq. 11 summed pixel by
+    pixel from the scanline masks (term 1: dt under the model, in float64, exact in any order;
+    term 2: the one-loop 5x5 chamfer of the model's pixels in the box, read at the observed
+    pixels)."""
+    body = request.getfixturevalue(dtype)
+    rig, sb, target, chi, numpy_energy = scene(body, size=(96, 72), views=3, particles=4)
+    got = SilhouetteEnergy(sb, rig, scale=1.0, backend="numba").per_view(chi, target)
+    masks = numpy_energy.model_masks(sb.pose(chi).vertices)
+    penalty = float(np.hypot(*target.size))
+    seeded = 0
+    for p in range(len(chi)):
+        for c in range(len(rig)):
+            model = masks[p, c]
+            e1 = target.dt[c][model].astype(np.float64).sum() / model.sum() if model.any() else penalty
+            x0, y0, x1, y1 = target.boxes[c]
+            seeds = model[y0:y1, x0:x1]
+            if seeds.any():
+                seeded += 1
+                d = _chamfer_one_loop(_seeded(seeds), y1 - y0, x1 - x0)[2:-2, 2:-2]
+                vals = d[target.masks[c, y0:y1, x0:x1]].astype(np.float32) * np.float32(2.0**-16)
+                e2 = vals.astype(np.float64).sum() / target.area[c]
+            else:
+                e2 = penalty
+            assert got[p, c] == e1 + e2, (p, c)
+    assert seeded >= 6
+
+
+def test_column_prefix_sums_are_numpys_cumsum_in_float64_with_a_zero_first_row():
+    rng = np.random.default_rng(2)
+    dt = np.sqrt(rng.integers(0, 90**2, (3, 17, 11))).astype(np.float32)
+    got = np.full((3, 18, 11), np.nan)
+    fused._column_prefix_sums(dt, got)
+    want = np.concatenate([np.zeros((3, 1, 11)), np.cumsum(dt.astype(np.float64), axis=1)], axis=1)
+    np.testing.assert_array_equal(got, want)
