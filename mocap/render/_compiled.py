@@ -199,7 +199,7 @@ if HAVE_NUMBA:
         E = ea.shape[0]
         orient = np.zeros(F + 1, np.int32)
         live = np.empty(E, np.int32)
-        flag = np.empty(E, np.uint8)
+        weight = np.empty(E, np.int32)
         cols = np.empty((E, 2), np.int32)
         for n in range(N):
             mask = out[n]
@@ -207,7 +207,7 @@ if HAVE_NUMBA:
                 mask[r, boxes[n, 2]:boxes[n, 3]] = False
             boxes[n, 0] = boxes[n, 1] = boxes[n, 2] = boxes[n, 3] = 0
             c_min, c_max, r_min, r_max = scan_edges(x[n], y[n], vis[n], faces, ea, eb, fwd,
-                                                    bwd, orient, flag, live, cols, acc,
+                                                    bwd, orient, weight, live, cols, acc,
                                                     height, width)
             if r_max < 0:
                 continue
