@@ -165,27 +165,32 @@ def test_the_crowd_with_false_people_keeps_every_real_detection_and_adds_skeleto
     assert np.all(np.diff(det.frame) >= 0)
 
 
-def test_views_expected_are_those_whose_image_holds_the_person_and_no_other_skeleton_hides_it():
-    # 4 keypoints in a 20 x 20 px square at (10..30, 10..30) in views 0, 2, 3, 4; off the image
-    # (x 200..220) in view 1; behind the camera in view 3; half of them off the image in view 4
+def test_views_expected_are_those_whose_image_holds_the_person_and_no_one_nearer_hides_it():
+    # 4 keypoints in a 20 x 20 px square at (10..30, 10..30), 5 m away, in views 0, 2, 3, 4; off
+    # the image (x 200..220) in view 1; behind the camera in view 3; half of them off the
+    # image in view 4
     sq = np.array([[10, 10], [30, 10], [10, 30], [30, 30]], np.float64)
     u = np.stack([sq, sq + [190, 0], sq, sq, sq], axis=1)                  # (L=4, C=5, 2)
     u[2:, 4] += [100, 0]                                                   # view 4: 2 of 4 inside
-    depth = np.ones((4, 5))
+    depth = np.full((4, 5), 5.0)
     depth[:, 3] = -1.0
     sizes = np.full((5, 2), 100)
-    none = [np.zeros((0, 4))] * 5
-    assert list(views_expected(u, depth, sizes, none)) == [True, False, True, False, True]
-    # a box covering 10 x 20 = half of the 20 x 20 square hides the person in view 2; a quarter does not
-    half = [np.zeros((0, 4)), np.zeros((0, 4)), np.array([[0.0, 0.0, 20.0, 40.0]]), np.zeros((0, 4)),
-            np.zeros((0, 4))]
-    assert list(views_expected(u, depth, sizes, half)) == [True, False, False, False, True]
-    quarter = list(half)
-    quarter[2] = np.array([[0.0, 0.0, 20.0, 20.0], [np.nan] * 4])
-    assert list(views_expected(u, depth, sizes, quarter)) == [True, False, True, False, True]
+    nobody = (np.zeros((0, 2, 5, 2)), np.zeros((0, 2, 5)))
+    assert list(views_expected(u, depth, sizes, *nobody, 0.5)) == [True, False, True, False, True]
+    # someone whose box (0..20, 0..40) covers half of the square in view 2: hides it when
+    # nearer (3 m), not when farther (7 m); a box covering a quarter (0..20, 0..20) never does
+    other = np.full((2, 5, 2), 500.0)
+    other[:, 2] = [[0, 0], [20, 40]]
+    for d, hidden in ((3.0, True), (7.0, False)):
+        assert list(views_expected(u, depth, sizes, other[None], np.full((1, 2, 5), d), 0.5)) == \
+            [True, False, not hidden, False, True]
+    quarter = other.copy()
+    quarter[:, 2] = [[0, 0], [20, 20]]
+    assert views_expected(u, depth, sizes, quarter[None], np.full((1, 2, 5), 3.0), 0.5)[2]
+    assert views_expected(u, depth, sizes, other[None], np.full((1, 2, 5), 3.0), 0.75)[2]   # half < 0.75
     unknown = u.copy()
     unknown[:, 0] = np.nan                                                 # nothing known in view 0
-    assert not views_expected(unknown, depth, sizes, none)[0]
+    assert not views_expected(unknown, depth, sizes, *nobody, 0.5)[0]
 
 
 @pytest.fixture(scope="module")

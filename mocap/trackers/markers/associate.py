@@ -119,42 +119,37 @@ def _greedy_combos(D, free, threshold_px):
             yield combo
 
 
-def skeleton_boxes(sk: Skeletons) -> list[np.ndarray]:
-    """Per view, (N_c, 4) boxes x0, y0, x1, y1 (undistorted pixels) of each skeleton's valid
-    keypoints (NaN where it has none)."""
-    out = []
-    for xy, ok in zip(sk.xy, sk.valid, strict=True):
-        x = np.where(ok, xy[..., 0], np.nan)
-        y = np.where(ok, xy[..., 1], np.nan)
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            out.append(np.stack([np.nanmin(x, -1), np.nanmin(y, -1), np.nanmax(x, -1), np.nanmax(y, -1)], -1)
-                       .reshape(len(xy), 4))
-    return out
-
-
-def views_expected(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray, boxes: list[np.ndarray],
-                   cover: float = 0.5) -> np.ndarray:
+def views_expected(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray, others_u: np.ndarray,
+                   others_depth: np.ndarray, cover: float) -> np.ndarray:
     """(C,) bool: the views that should see a person whose keypoints project to u (L, C, 2)
     undistorted pixels at depth (L, C) metres (NaN: keypoint unknown), in images of ``sizes``
     (C, 2) width, height: half or more of its known keypoints land in front of the camera and
-    inside the image, and no other skeleton's box (``boxes[c]`` (N_c, 4), the view's skeletons
-    that are not this person's) covers ``cover`` or more of the box of those keypoints (the
-    person may stand hidden behind it). A person missing from such a view is evidence against
-    it; one outside a view's image, or hidden in it, is not."""
+    inside the image, and no other person nearer that camera (``others_u`` (P, L', C, 2),
+    ``others_depth`` (P, L', C): the other people's projected keypoints; nearer: a smaller
+    median depth) covers ``cover`` or more of the box of those keypoints with the box of its
+    own (the person may stand hidden behind them). A person missing from such a view is
+    evidence against it; one outside a view's image, or hidden in it, is not."""
     known = np.all(np.isfinite(u), axis=-1) & np.isfinite(depth)                        # (L, C)
     inside = known & (depth > 0) & np.all((u >= 0) & (u < sizes[None].astype(np.float64)), axis=-1)
     n = known.sum(axis=0)
     seen = (n > 0) & (2 * inside.sum(axis=0) >= np.maximum(n, 1))                     # (C,)
     out = np.zeros(len(sizes), bool)
+    front = np.isfinite(others_depth) & (others_depth > 0) & np.all(np.isfinite(others_u), axis=-1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ox0 = np.nanmin(np.where(front, others_u[..., 0], np.nan), axis=1)             # (P, C)
+        oy0 = np.nanmin(np.where(front, others_u[..., 1], np.nan), axis=1)
+        ox1 = np.nanmax(np.where(front, others_u[..., 0], np.nan), axis=1)
+        oy1 = np.nanmax(np.where(front, others_u[..., 1], np.nan), axis=1)
+        odepth = np.nanmedian(np.where(front, others_depth, np.nan), axis=1)           # (P, C)
     for c in np.flatnonzero(seen):
         p = u[inside[:, c], c]
-        box = np.array([p[:, 0].min(), p[:, 1].min(), p[:, 0].max(), p[:, 1].max()])
-        area = max((box[2] - box[0]) * (box[3] - box[1]), 1e-9)
-        b = boxes[c][np.all(np.isfinite(boxes[c]), axis=1)]
-        w = np.clip(np.minimum(b[:, 2], box[2]) - np.maximum(b[:, 0], box[0]), 0, None)
-        h = np.clip(np.minimum(b[:, 3], box[3]) - np.maximum(b[:, 1], box[1]), 0, None)
-        out[c] = not np.any(w * h >= cover * area)
+        x0, y0, x1, y1 = p[:, 0].min(), p[:, 1].min(), p[:, 0].max(), p[:, 1].max()
+        area = max((x1 - x0) * (y1 - y0), 1e-9)
+        w = np.clip(np.minimum(ox1[:, c], x1) - np.maximum(ox0[:, c], x0), 0, None)
+        h = np.clip(np.minimum(oy1[:, c], y1) - np.maximum(oy0[:, c], y0), 0, None)
+        nearer = odepth[:, c] < np.median(depth[inside[:, c], c])
+        out[c] = not np.any(nearer & (np.nan_to_num(w * h) >= cover * area))
     return out
 
 

@@ -7,11 +7,12 @@ person with support gets a track (id 0, 1, ... in the association's order: most 
 first), initialised by the tracker's own start-up on that person's detections. Support
 (:meth:`PeopleTracker.views_needed`): seen in ``options.min_views`` views (2: what
 triangulation needs) and in more than ``options.support`` (half) of the views that should see
-it, the views whose image holds its triangulated keypoints and where no other skeleton of the
-frame hides it (:func:`~mocap.trackers.markers.associate.views_expected`). A person standing
-outside the other cameras' images, or hidden behind someone in them, is tracked from two
-views; a false skeleton that two cameras see where three others see nobody is not. A person
-within ``options.radius`` of one started before it is that one's leftover skeletons.
+it, the views whose image holds its triangulated keypoints
+(:func:`~mocap.trackers.markers.associate.views_expected`). A person standing outside the
+other cameras' images is tracked from two views; a false skeleton that two cameras see where
+three others see nobody is not. A person within ``options.radius`` of one started before it
+is that one's leftover skeletons. Once tracked, a view where another tracked person nearer the
+camera covers ``options.hidden`` of it does not count against it (occlusion).
 ``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id,
 or a point (x, y, z) world metres (the person whose triangulated keypoints lie nearest).
 
@@ -71,7 +72,6 @@ from mocap.trackers.markers.associate import (
     Skeletons,
     associate_people,
     person_detections,
-    skeleton_boxes,
     skeletons_of,
     views_expected,
 )
@@ -163,7 +163,6 @@ class PeopleTracker:
         self.start_up_flags: list[str] = []
         self._probe: MarkerAPFTracker | None = None
         self._reference: float | None = None        # px: how well a tracked person's views agree
-        self._boxes: list[np.ndarray] | None = None  # the frame's skeleton boxes, while in use
         self._needed: list[int] = []                 # per live track: views its support needs
 
     # -- set-up ------------------------------------------------------------------------
@@ -191,7 +190,7 @@ class PeopleTracker:
         if sk is None:
             raise ValueError("several people need detections grouped into skeletons (Detections.person)")
         people = associate_people(sk, probe.F, self._association_px(), min_views=self.min_views)
-        people = self._supported(det, sk, sk, people)
+        people = self._supported(det, sk, people)
         if self.options.consistency and people:
             self._reference = float(np.median([d for _, d, _ in people]))
             people = [(p, d, c) for p, d, c in people if d <= self.options.consistency * self._reference]
@@ -208,49 +207,56 @@ class PeopleTracker:
         """Views a person must be associated in whatever the others show (``options.min_views``)."""
         return self.options.min_views
 
-    def views_needed(self, points: np.ndarray, sk: Skeletons, own: Sequence[int | None]) -> int:
-        """Views a person with keypoints ``points`` (L, 3) world m (NaN: unknown) must be seen
-        in (:meth:`PeopleOptions.views_needed`): more than ``options.support`` of the views that
-        should see it (:func:`~mocap.trackers.markers.associate.views_expected`: its keypoints
-        in the image, no other skeleton of the frame ``sk`` hiding it; ``own``: its skeleton's
-        index in ``sk`` per view, or None), the views it is seen in counted among them."""
-        u, depth = pinhole_project(self._probe_tracker().pinhole, np.where(np.isfinite(points), points, 0.0))
-        bad = ~np.all(np.isfinite(points), axis=1)
-        u[bad], depth[bad] = np.nan, np.nan
-        return self._needed_at(u, depth, sk, own)
+    def views_needed(self, points: np.ndarray, seen: np.ndarray, others: Sequence[np.ndarray]) -> int:
+        """Views a person with keypoints ``points`` (L, 3) world m (NaN: unknown), seen in the
+        views ``seen`` (C,) bool, must be seen in (:meth:`PeopleOptions.views_needed`): more than
+        ``options.support`` of the views that should see it
+        (:func:`~mocap.trackers.markers.associate.views_expected`: its keypoints in the image, no
+        one of ``others`` (each (L', 3) world m: the other people known) nearer the camera
+        covering ``options.hidden`` of its box), the views it is seen in counted among them."""
+        u, depth = self._project(points[None])
+        if others:
+            ou, odepth = self._project(np.stack(others))
+        else:
+            C = len(seen)
+            ou, odepth = np.zeros((0, 1, C, 2)), np.zeros((0, 1, C))
+        return self._needed_at(u[0], depth[0], seen, ou, odepth)
 
-    def _needed_at(self, u: np.ndarray, depth: np.ndarray, sk: Skeletons, own: Sequence[int | None]) -> int:
-        """:meth:`views_needed` of keypoints projected to u (L, C, 2) at depth (L, C)."""
-        probe = self._probe_tracker()
-        boxes = self._boxes if self._boxes is not None else skeleton_boxes(sk)
-        others = [np.delete(b, [j], axis=0) if j is not None else b for b, j in zip(boxes, own, strict=True)]
-        expected = views_expected(u, depth, np.asarray(probe.pinhole.sizes), others)
-        expected |= np.array([j is not None for j in own])
+    def _project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """points (P, L, 3) world m (NaN: unknown) -> undistorted pixels (P, L, C, 2) and depths
+        (P, L, C), NaN where unknown."""
+        u, depth = pinhole_project(self._probe_tracker().pinhole, np.where(np.isfinite(points), points, 0.0))
+        bad = ~np.all(np.isfinite(points), axis=-1)
+        u[bad], depth[bad] = np.nan, np.nan
+        return u, depth
+
+    def _needed_at(self, u: np.ndarray, depth: np.ndarray, seen: np.ndarray, others_u: np.ndarray,
+                   others_depth: np.ndarray) -> int:
+        """:meth:`views_needed` of keypoints projected to u (L, C, 2) at depth (L, C), the
+        others' to others_u (P, L', C, 2) at others_depth (P, L', C)."""
+        sizes = np.asarray(self._probe_tracker().pinhole.sizes)
+        expected = views_expected(u, depth, sizes, others_u, others_depth, self.options.hidden) | seen
         return self.options.views_needed(int(expected.sum()))
 
-    def _supported(self, det: Detections, sk: Skeletons, free: Skeletons,
-                   people: list[tuple[list[int | None], float]]
+    def _supported(self, det: Detections, free: Skeletons, people: list[tuple[list[int | None], float]]
                    ) -> list[tuple[list[int | None], float, np.ndarray]]:
-        """The associated people (skeleton indices in ``free``, a subset of the frame's ``sk``)
-        seen in the views their support needs (:meth:`views_needed`), as (person, distance,
-        triangulated keypoints (L, 3)); a person that triangulates (median keypoint) within
-        ``options.radius`` of one kept before it is that one's leftover skeletons, dropped."""
-        self._boxes = skeleton_boxes(sk)
-        kept, centres = [], []
+        """The associated people (skeleton indices in ``free``) seen in the views their support
+        needs (:meth:`views_needed`, no one counted as hiding them: a newcomer shows itself in
+        most of the views whose image holds it), as (person, distance, triangulated keypoints
+        (L, 3)); a person that triangulates (median keypoint) within ``options.radius`` of one
+        kept before it is that one's leftover skeletons, dropped."""
+        kept = []
         for person, d in people:
             X = self._points(person_detections(det, free, person))
             if np.isfinite(X[:, 0]).sum() < 3:
                 continue
-            own = [None if i is None else int(np.flatnonzero(sk.ids[c] == free.ids[c][i])[0])
-                   for c, i in enumerate(person)]
-            if sum(i is not None for i in person) < self.views_needed(X, sk, own):
+            seen = np.array([i is not None for i in person])
+            if seen.sum() < self.views_needed(X, seen, []):
                 continue
             centre = np.nanmedian(X, axis=0)
-            if any(np.linalg.norm(centre - c) < self.options.radius for c in centres):
+            if any(np.linalg.norm(centre - np.nanmedian(k[2], axis=0)) < self.options.radius for k in kept):
                 continue
             kept.append((person, d, X))
-            centres.append(centre)
-        self._boxes = None
         return kept
 
     def _association_px(self) -> float:
@@ -319,12 +325,11 @@ class PeopleTracker:
                     taken[i].append((c, int(j)))
         if self.options.consistency:
             taken = self._consistent(sk, taken)
-        self._boxes = skeleton_boxes(sk)
         self._needed = []
         for i, tk in enumerate(taken):
-            own = dict(tk)
-            self._needed.append(self._needed_at(u[i], depth[i], sk, [own.get(c) for c in range(len(sk.xy))]))
-        self._boxes = None
+            seen = np.isin(np.arange(len(sk.xy)), [c for c, _ in tk])
+            rest = np.arange(len(live)) != i
+            self._needed.append(self._needed_at(u[i], depth[i], seen, u[rest], depth[rest]))
         for i, tk in enumerate(taken):
             for c, j in tk:
                 keep[i] |= (det.view == c) & (det.person == sk.ids[c][j])
@@ -512,7 +517,7 @@ class PeopleTracker:
         if o.consistency and people:
             if self._reference is not None:
                 people = [(p, d) for p, d in people if d <= o.consistency * self._reference]
-        people = self._supported(det, sk, free, people)
+        people = self._supported(det, free, people)
         # a live track blocks a candidate next to it (a skeleton of its person it did not take),
         # unless it has coasted longer than confirm_frames (a newcomer where someone left)
         centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks
