@@ -362,6 +362,36 @@ def test_real_two_person_recording_both_people_in_every_view_read_back_with_two_
 @needs_detector
 @pytest.mark.slow
 @needs_multi
+def test_real_two_person_recording_with_people_auto_gives_two_tracks_and_no_leftover_skeletons(body, tmp_path,
+                                                                                                capsys):
+    """--people auto on frames 60-69 (where, before the leftover rule, cam_01 and cam_03 held 3-5
+    skeletons a frame: parts of the two actors completed into bodies): at most 2 people a frame
+    in every view, and marker_people makes exactly the 2 actors' tracks, both from the first
+    frame to the last."""
+    from mocap.trackers.presets import make_tracker
+    from mocap.trackers.run import frame_of
+
+    out = tmp_path / "auto"
+    assert cli(["detect", str(MULTI), "--out", str(out), "--people", "auto", "--start", "60", "--stop", "70",
+                "--scale", "0.5", "--no-progress"]) == 0
+    head = json.loads((out / "detect.json").read_text())
+    for name, v in head["views"].items():
+        assert max(v["people_per_frame"]) <= 2, (name, v["people_per_frame"])
+    seq = load_openpose_sequence(out, layout="auto", person="all")
+    people = make_tracker("marker_people", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                          particles=30, layers=3, init={"particles": 60, "passes": 2, "layers": 5})
+    people.check_sequence(seq)
+    people.start(frame_of(seq, 0))
+    for f in range(1, seq.num_frames):
+        people.step(frame_of(seq, f))
+    assert people.births == {0: [0, 1]} and people.deaths == {}
+    assert all(len(t.estimates) == seq.num_frames for t in people.tracks)
+    capsys.readouterr()
+
+
+@needs_detector
+@pytest.mark.slow
+@needs_multi
 def test_people_1_writes_the_same_files_as_before(tmp_path):
     """--people 1 is the one-person detector of before: byte-identical keypoints, masks, view
     records and detect.json to a run without the flag."""
