@@ -20,7 +20,7 @@ from mocap.data.crowd import (
     with_false_skeletons,
 )
 from mocap.data.sequence import Detections
-from mocap.trackers.markers.associate import views_expected
+from mocap.trackers.markers.associate import projected_boxes, views_expected
 from mocap.trackers.markers.settings import PeopleOptions
 from mocap.trackers.presets import make_tracker
 from mocap.trackers.run import frame_of
@@ -175,19 +175,21 @@ def test_views_expected_are_those_whose_image_holds_the_person_and_no_one_nearer
     depth = np.full((4, 5), 5.0)
     depth[:, 3] = -1.0
     sizes = np.full((5, 2), 100)
-    nobody = (np.zeros((0, 2, 5, 2)), np.zeros((0, 2, 5)))
+    box, near = projected_boxes(u, depth)
+    assert np.allclose(box[2], [10, 10, 30, 30]) and np.isnan(box[3]).all() and np.allclose(near[[0, 2]], 5)
+    nobody = (np.zeros((0, 5, 4)), np.zeros((0, 5)))
     assert list(views_expected(u, depth, sizes, *nobody, 0.5)) == [True, False, True, False, True]
     # someone whose box (0..20, 0..40) covers half of the square in view 2: hides it when
     # nearer (3 m), not when farther (7 m); a box covering a quarter (0..20, 0..20) never does
     other = np.full((2, 5, 2), 500.0)
     other[:, 2] = [[0, 0], [20, 40]]
     for d, hidden in ((3.0, True), (7.0, False)):
-        assert list(views_expected(u, depth, sizes, other[None], np.full((1, 2, 5), d), 0.5)) == \
-            [True, False, not hidden, False, True]
+        theirs = projected_boxes(other[None], np.full((1, 2, 5), d))
+        assert list(views_expected(u, depth, sizes, *theirs, 0.5)) == [True, False, not hidden, False, True]
+    assert views_expected(u, depth, sizes, *projected_boxes(other[None], np.full((1, 2, 5), 3.0)), 0.75)[2]
     quarter = other.copy()
     quarter[:, 2] = [[0, 0], [20, 20]]
-    assert views_expected(u, depth, sizes, quarter[None], np.full((1, 2, 5), 3.0), 0.5)[2]
-    assert views_expected(u, depth, sizes, other[None], np.full((1, 2, 5), 3.0), 0.75)[2]   # half < 0.75
+    assert views_expected(u, depth, sizes, *projected_boxes(quarter[None], np.full((1, 2, 5), 3.0)), 0.5)[2]
     unknown = u.copy()
     unknown[:, 0] = np.nan                                                 # nothing known in view 0
     assert not views_expected(unknown, depth, sizes, *nobody, 0.5)[0]

@@ -28,11 +28,10 @@ Each frame (:meth:`PeopleTracker.step`):
    before, takes them only when they triangulate within ``options.radius`` m of its
    prediction (a newcomer where someone just left is not taken for them), and after coasting
    more than ``options.confirm_frames`` frames only in the views its support needs (from its
-   predicted keypoints). In a
-   track's own views, a skeleton that disagrees with the others (its median skeleton
-   epipolar distance to them above ``options.consistency`` times the frame's reference, the
-   median over every track's pairs of views) is not taken (a false skeleton, or the crossing
-   partner's).
+   predicted keypoints). In a track's own views, a skeleton that disagrees with the others
+   (its median skeleton epipolar distance to them above ``options.consistency`` times the
+   frame's reference, the median over every track's pairs of views) is not taken (a false
+   skeleton, or the crossing partner's).
 2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
    frames it coasted after its last skeleton are dropped from its estimates. A track assigned
    skeletons in fewer views than its support needs (but some) for more than
@@ -41,8 +40,8 @@ Each frame (:meth:`PeopleTracker.step`):
    one with support dropped.
 3. Births: the skeletons no track took are associated across views as at the start-up
    (with support: a false skeleton seen by one or two cameras that others should see is no
-   newcomer; and ``options.consistency``: the views must agree about as well as a tracked person's do, not
-   by the chance agreement of false skeletons); each such person, triangulated, is a
+   newcomer; and ``options.consistency``: the views must agree about as well as a tracked
+   person's do, not by the chance agreement of false skeletons); each such person, triangulated, is a
    candidate unless it lies within ``options.radius`` m of a live track (its median keypoint
    against the track's median landmark; tracks coasting for more than ``confirm_frames``
    aside). A candidate seen in ``options.confirm_frames`` consecutive frames, each within
@@ -72,6 +71,7 @@ from mocap.trackers.markers.associate import (
     Skeletons,
     associate_people,
     person_detections,
+    projected_boxes,
     skeletons_of,
     views_expected,
 )
@@ -220,7 +220,7 @@ class PeopleTracker:
         else:
             C = len(seen)
             ou, odepth = np.zeros((0, 1, C, 2)), np.zeros((0, 1, C))
-        return self._needed_at(u[0], depth[0], seen, ou, odepth)
+        return self._needed_at(u[0], depth[0], seen, *projected_boxes(ou, odepth))
 
     def _project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """points (P, L, 3) world m (NaN: unknown) -> undistorted pixels (P, L, C, 2) and depths
@@ -230,12 +230,12 @@ class PeopleTracker:
         u[bad], depth[bad] = np.nan, np.nan
         return u, depth
 
-    def _needed_at(self, u: np.ndarray, depth: np.ndarray, seen: np.ndarray, others_u: np.ndarray,
+    def _needed_at(self, u: np.ndarray, depth: np.ndarray, seen: np.ndarray, others_box: np.ndarray,
                    others_depth: np.ndarray) -> int:
         """:meth:`views_needed` of keypoints projected to u (L, C, 2) at depth (L, C), the
-        others' to others_u (P, L', C, 2) at others_depth (P, L', C)."""
+        others' boxes (P, C, 4) and depths (P, C) (:func:`projected_boxes`)."""
         sizes = np.asarray(self._probe_tracker().pinhole.sizes)
-        expected = views_expected(u, depth, sizes, others_u, others_depth, self.options.hidden) | seen
+        expected = views_expected(u, depth, sizes, others_box, others_depth, self.options.hidden) | seen
         return self.options.views_needed(int(expected.sum()))
 
     def _supported(self, det: Detections, free: Skeletons, people: list[tuple[list[int | None], float]]
@@ -326,10 +326,11 @@ class PeopleTracker:
         if self.options.consistency:
             taken = self._consistent(sk, taken)
         self._needed = []
+        boxes, near = projected_boxes(u, depth)                                     # (T, C, 4), (T, C)
         for i, tk in enumerate(taken):
             seen = np.isin(np.arange(len(sk.xy)), [c for c, _ in tk])
             rest = np.arange(len(live)) != i
-            self._needed.append(self._needed_at(u[i], depth[i], seen, u[rest], depth[rest]))
+            self._needed.append(self._needed_at(u[i], depth[i], seen, boxes[rest], near[rest]))
         for i, tk in enumerate(taken):
             for c, j in tk:
                 keep[i] |= (det.view == c) & (det.person == sk.ids[c][j])
