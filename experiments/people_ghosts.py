@@ -3,14 +3,15 @@ cameras), does ``marker_people`` make ghost tracks, and does suppressing them co
 people anything (entrants picked up late, identities lost)?
 
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=$PWD .venv/bin/python experiments/people_ghosts.py \
-        --seeds 0 1 2 --false-people 6 [--set people.min_views=2 people.max_under_viewed=1000]
+        --seeds 0 1 2 --false-people 6 \
+        [--set people.min_views=2 people.support=0 people.max_under_viewed=1000]
 
 Scene: the synthetic crowd (``data=crowd``, :func:`mocap.data.crowd.crowd_sequence`: five
 people, at most four at once, 5 views) with ``--false-people`` false skeletons
 (:func:`mocap.data.crowd.false_skeletons`: plausible walking people, each seen in one or two
 views only, over a quarter to all of the frames). Tracker: the ``marker_people`` preset with
-``--set`` overrides (``people.min_views=2 people.max_under_viewed=1000`` is the tracker before
-ghost suppression). Per seed: tracks made, tracks assigned to no true person (the Hungarian
+``--set`` overrides (``people.min_views=2 people.support=0 people.max_under_viewed=1000`` is
+the tracker before ghost suppression). Per seed: tracks made, tracks assigned to no true person (the Hungarian
 assignment of :func:`mocap.eval.people_metrics.people_scores`: extra tracks), ghost tracks
 (a track whose mean joint error to every true person present is above 0.5 m in all its
 frames, the issue's measure), per true person the frames from

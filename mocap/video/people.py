@@ -16,9 +16,15 @@ per-view people is the several-people tracker's job (``tracker=marker_people``);
 :func:`mocap.video.people_views.group_views` associates them per frame for the left/right
 check only.
 
+A search's find is a person only when the image showed it: BlazePose, given an image with the
+people found hidden, also finds what is left of them (an arm or the legs outside their masks)
+and completes a whole body over the hidden pixels. A find with fewer than ``min_keypoints``,
+or less than ``min_shown`` of its confident keypoints, on pixels the search image shows is
+refused as such leftover parts (``PeopleDetector.leftovers`` counts them).
+
 Limits (docs/results/people_from_video.md): where two people overlap in a view, BlazePose mixes
-them or finds one; with ``people=None`` (auto) the searches also find false skeletons made of
-what is left of the people already found (a limb outside their masks).
+them or finds one; a small person far in the background is found only when BlazePose's
+whole-image detector picks them.
 """
 
 from __future__ import annotations
@@ -58,6 +64,9 @@ class PeopleSettings:
     max_people: int = 8                  # auto: at most this many per view
     search_every: int = 10               # auto: frames between searches for more people
     min_keypoints: int = 8               # keypoints with confidence >= min_confidence for a person to count
+    min_shown: float = 0.75              # a search's find: at least min_keypoints and this fraction of them
+    #                                      on pixels the search image shows (else: leftover parts of people
+    #                                      found, completed by the model over the hidden ones)
     min_confidence: float = 0.5
     margin: float = 0.3                  # crop: the last keypoints' box grown by this x its size per side
     lost_after: int = 15                 # frames a person may go unseen before its id is retired
@@ -68,6 +77,8 @@ class PeopleSettings:
     def __post_init__(self):
         if self.people is not None:
             parse_people(self.people)
+        if not 0 <= self.min_shown <= 1:
+            raise ValueError(f"people settings min_shown must be in [0, 1], got {self.min_shown!r}")
         for name in ("max_people", "search_every", "min_keypoints", "lost_after"):
             if getattr(self, name) < 1:
                 raise ValueError(f"people settings {name} must be >= 1, got {getattr(self, name)!r}")
@@ -144,6 +155,34 @@ def crop_box(box: np.ndarray, margin: float, width: int, height: int) -> tuple[i
             int(min(width, np.ceil(cx + half))), int(min(height, np.ceil(cy + half))))
 
 
+def _mask_hidden(masks: list[np.ndarray], H: int, W: int) -> np.ndarray:
+    """(H, W) bool: the masks (probability >= 0.5) dilated by 1 % of the image."""
+    hide = np.any([m >= 0.5 for m in masks], axis=0).astype(np.uint8)
+    size = max(3, int(0.01 * max(H, W))) | 1
+    return cv2.dilate(hide, np.ones((size, size), np.uint8)).astype(bool)
+
+
+def _box_slices(b: np.ndarray, grow: float, H: int, W: int) -> tuple[slice, slice] | None:
+    if not np.all(np.isfinite(b)):
+        return None
+    gw, gh = grow * (b[2] - b[0]), grow * (b[3] - b[1])
+    x0, y0 = int(max(0, b[0] - gw)), int(max(0, b[1] - gh))
+    x1, y1 = int(min(W, b[2] + gw + 1)), int(min(H, b[3] + gh + 1))
+    return slice(y0, y1), slice(x0, x1)
+
+
+def hidden_pixels(shape: tuple[int, int], masks: list[np.ndarray], boxes: list[np.ndarray],
+                  grow: float = 0.1) -> np.ndarray:
+    """(H, W) bool: the pixels :func:`black_out` hides (its masks, dilated, and boxes, grown)."""
+    H, W = shape
+    out = _mask_hidden(masks, H, W) if masks else np.zeros((H, W), bool)
+    for b in boxes:
+        sl = _box_slices(b, grow, H, W)
+        if sl is not None:
+            out[sl] = True
+    return out
+
+
 def black_out(rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray], grow: float = 0.1
               ) -> np.ndarray:
     """A copy of ``rgb`` with the people already found hidden from the next search: each
@@ -153,20 +192,27 @@ def black_out(rgb: np.ndarray, masks: list[np.ndarray], boxes: list[np.ndarray],
     out = rgb.copy()
     H, W = rgb.shape[:2]
     if masks:
-        hide = np.any([m >= 0.5 for m in masks], axis=0).astype(np.uint8)
-        size = max(3, int(0.01 * max(H, W))) | 1
-        hide = cv2.dilate(hide, np.ones((size, size), np.uint8)).astype(bool)
+        hide = _mask_hidden(masks, H, W)
         small = cv2.resize(rgb, (max(1, W // 16), max(1, H // 16)), interpolation=cv2.INTER_AREA)
         fill = cv2.resize(cv2.GaussianBlur(small, (0, 0), 2), (W, H), interpolation=cv2.INTER_LINEAR)
         out[hide] = fill[hide]
     for b in boxes:
-        if not np.all(np.isfinite(b)):
-            continue
-        gw, gh = grow * (b[2] - b[0]), grow * (b[3] - b[1])
-        x0, y0 = int(max(0, b[0] - gw)), int(max(0, b[1] - gh))
-        x1, y1 = int(min(W, b[2] + gw + 1)), int(min(H, b[3] + gh + 1))
-        out[y0:y1, x0:x1] = 0
+        sl = _box_slices(b, grow, H, W)
+        if sl is not None:
+            out[sl] = 0
     return out
+
+
+def shown_keypoints(kp: np.ndarray, hidden: np.ndarray, min_confidence: float = 0.5) -> tuple[int, int]:
+    """(keypoints with confidence >= ``min_confidence`` inside the image, those of them on
+    pixels not ``hidden`` (H, W)) of one find ``kp`` (K, 3) in image pixels: what the image
+    showed of it, against what the pose model completed over hidden pixels."""
+    H, W = hidden.shape
+    x, y = np.round(kp[:, 0]).astype(np.int64), np.round(kp[:, 1]).astype(np.int64)
+    inside = (kp[:, 2] >= min_confidence) & (x >= 0) & (x < W) & (y >= 0) & (y < H)
+    shown = inside.copy()
+    shown[inside] = ~hidden[y[inside], x[inside]]
+    return int(inside.sum()), int(shown.sum())
 
 
 #: BlazePose bones drawn to split a mask between people: face, arms, trunk, legs, feet
@@ -255,6 +301,7 @@ class PeopleDetector:
         self.tracks: list[_Track] = []
         self.frame = 0
         self._next_id = 0
+        self.leftovers = 0              # search finds refused as leftover parts of people found
 
     # -- one call of the pose model, in full-image pixels --------------------------------------
     def _pose_in(self, rgb: np.ndarray, crop: tuple[int, int, int, int] | None):
@@ -284,7 +331,11 @@ class PeopleDetector:
         masks are hidden first, not boxes (a box would hide a person standing behind); when
         nothing more is found so, the found people's boxes are blacked out too and the search
         goes on (BlazePose returns only its best candidate, which may be a blurred body that
-        its landmark model then rejects)."""
+        its landmark model then rejects). A find with fewer than ``min_keypoints``, or less
+        than ``min_shown`` of its confident keypoints, on pixels the search image shows is what
+        is left of a person found (an arm outside its mask, the model completing a body over
+        the hidden pixels): its box is hidden too and the search goes on; one with none shown
+        is treated as nothing found (the found people's boxes hidden next, then the end)."""
         s = self.settings
         found = []
         masks, known, hidden = list(masks), list(known), []
@@ -303,6 +354,18 @@ class PeopleDetector:
             if near is not None and near.min() < s.same_distance:
                 hidden.append(keypoint_boxes(got[0], s.min_confidence))
                 continue                # the rest of someone found already: hidden, search again
+            if masks or hidden or boxes:
+                gone = hidden_pixels(rgb.shape[:2], masks, hidden + boxes)
+                confident, shown = shown_keypoints(got[0], gone, s.min_confidence)
+                if shown < s.min_keypoints or shown < s.min_shown * confident:
+                    self.leftovers += 1
+                    if shown == 0:      # all made up over hidden pixels: the blurred bodies draw the model
+                        if boxes_too:
+                            break
+                        boxes_too = True    # hide their boxes, as when nothing is found
+                        continue
+                    hidden.append(keypoint_boxes(got[0], s.min_confidence))
+                    continue            # mostly made up over hidden pixels: leftover parts, hidden
             found.append(got)
             masks.append(got[1])
             known.append(got[0])
@@ -407,4 +470,5 @@ class PeopleDetector:
 
 
 __all__ = ["AUTO", "NUM_KEYPOINTS", "PeopleDetector", "PeopleSettings", "Person", "box_iou", "crop_box",
-           "keypoint_boxes", "keypoint_distance", "parse_people", "split_masks"]
+           "hidden_pixels", "keypoint_boxes", "keypoint_distance", "parse_people", "shown_keypoints",
+           "split_masks"]

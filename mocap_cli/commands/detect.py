@@ -63,9 +63,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="skip the multi-view check that mirrors a view's left/right labels when the other "
                         "views say they are swapped")
     p.add_argument("--people", default="1",
-                   help="people per view: a whole number >= 1, or auto (everyone found; also finds "
-                        "false skeletons made of parts of the people already found: give N when "
-                        "known); 1 (default) follows one person per view; more: each person in its "
+                   help="people per view: a whole number >= 1, or auto (everyone the search finds; "
+                        "leftover parts of the people already found are refused, and a small person "
+                        "far in the background may be missed: give N when known); 1 (default) "
+                        "follows one person per view; more: each person in its "
                         "own crop, several people per keypoint file, a mask per person "
                         "(masks/<cam>/<id>/)")
     p.add_argument("--force", action="store_true", help="redo views already done")

@@ -15,6 +15,7 @@ mean distance) first, its skeletons removed, and again.
 from __future__ import annotations
 
 import itertools
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,6 +117,48 @@ def _greedy_combos(D, free, threshold_px):
                 if m < threshold_px:
                     combo[b] = j
             yield combo
+
+
+def projected_boxes(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per person and view, the box x0, y0, x1, y1 (..., C, 4) and the mean depth (..., C) of
+    the keypoints projected to u (..., L, C, 2) at depth (..., L, C) (NaN: unknown) that land
+    in front of the camera (and inside images of ``sizes`` (C, 2) width, height when given);
+    NaN where none does."""
+    ok = np.all(np.isfinite(u), axis=-1) & np.isfinite(depth) & (np.nan_to_num(depth) > 0)
+    if sizes is not None:
+        ok &= np.all((u >= 0) & (u < np.asarray(sizes, np.float64)), axis=-1)
+    x, y = np.where(ok, u[..., 0], np.nan), np.where(ok, u[..., 1], np.nan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        box = np.stack([np.nanmin(x, -2), np.nanmin(y, -2), np.nanmax(x, -2), np.nanmax(y, -2)], -1)
+        n = ok.sum(axis=-2)
+        mean = np.where(ok, depth, 0.0).sum(axis=-2) / np.maximum(n, 1)
+        return box, np.where(n > 0, mean, np.nan)
+
+
+def views_expected(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray, others_box: np.ndarray,
+                   others_depth: np.ndarray, cover: float) -> np.ndarray:
+    """(C,) bool: the views that should see a person whose keypoints project to u (L, C, 2)
+    undistorted pixels at depth (L, C) metres (NaN: keypoint unknown), in images of ``sizes``
+    (C, 2) width, height: half or more of its known keypoints land in front of the camera and
+    inside the image, and no other person nearer that camera (mean depth; ``others_box`` (P, C, 4),
+    ``others_depth`` (P, C): the other people's :func:`projected_boxes`) covers ``cover`` or
+    more of the box of those keypoints (the person may stand hidden behind them). A person
+    missing from such a view is evidence against it; one outside a view's image, or hidden in
+    it, is not."""
+    known = np.all(np.isfinite(u), axis=-1) & np.isfinite(depth)                        # (L, C)
+    inside = known & (np.nan_to_num(depth) > 0) & np.all((u >= 0) & (u < np.asarray(sizes, np.float64)), -1)
+    n = known.sum(axis=0)
+    in_image = (n > 0) & (2 * inside.sum(axis=0) >= np.maximum(n, 1))                 # (C,)
+    box, near = projected_boxes(u, depth, sizes)                                       # (C, 4), (C,)
+    area = np.maximum((box[:, 2] - box[:, 0]) * (box[:, 3] - box[:, 1]), 1e-9)
+    ob = others_box                                                                    # (P, C, 4)
+    w = np.clip(np.minimum(ob[..., 2], box[:, 2]) - np.maximum(ob[..., 0], box[:, 0]), 0, None)
+    h = np.clip(np.minimum(ob[..., 3], box[:, 3]) - np.maximum(ob[..., 1], box[:, 1]), 0, None)
+    with np.errstate(invalid="ignore"):
+        hidden = np.any((others_depth < near) & (np.nan_to_num(w * h) >= cover * area), axis=0)   # (C,)
+    return in_image & ~hidden
 
 
 def person_detections(det: Detections, sk: Skeletons, person: list[int | None]) -> Detections:

@@ -3,10 +3,17 @@ per person, identities kept across frames, people entering and leaving picked up
 
 Start-up (:meth:`PeopleTracker.start`): the people of the first frame are associated across
 views by whole-skeleton epipolar consistency (:mod:`mocap.trackers.markers.associate`); each
-person seen in ``min_views`` or more views (``options.min_views``; by default 3 where the
-rig has 4 or more cameras, else 2) gets a track (id 0, 1, ... in the
-association's order: most views first), initialised by the tracker's own start-up on that
-person's detections. ``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id,
+person with support gets a track (id 0, 1, ... in the association's order: most views
+first), initialised by the tracker's own start-up on that person's detections. Support
+(:meth:`PeopleTracker.views_needed`): seen in ``options.min_views`` views (2: what
+triangulation needs) and in more than ``options.support`` (half) of the views that should see
+it, the views whose image holds its triangulated keypoints
+(:func:`~mocap.trackers.markers.associate.views_expected`). A person standing outside the
+other cameras' images is tracked from two views; a false skeleton that two cameras see where
+three others see nobody is not. A person within ``options.radius`` of one started before it
+is that one's leftover skeletons. Once tracked, a view where another tracked person nearer the
+camera covers ``options.hidden`` of it does not count against it (occlusion).
+``select`` keeps one of them: ``"all"``, ``"most_views"``, an ``int`` id,
 or a point (x, y, z) world metres (the person whose triangulated keypoints lie nearest).
 
 Each frame (:meth:`PeopleTracker.step`):
@@ -20,21 +27,21 @@ Each frame (:meth:`PeopleTracker.step`):
    coming back after missed frames, or assigned skeletons in fewer views than the frame
    before, takes them only when they triangulate within ``options.radius`` m of its
    prediction (a newcomer where someone just left is not taken for them), and after coasting
-   more than ``options.confirm_frames`` frames only in ``min_views`` views or more. In a
-   track's own views, a skeleton that disagrees with the others (its median skeleton
-   epipolar distance to them above ``options.consistency`` times the frame's reference, the
-   median over every track's pairs of views) is not taken (a false skeleton, or the crossing
-   partner's).
+   more than ``options.confirm_frames`` frames only in the views its support needs (from its
+   predicted keypoints). In a track's own views, a skeleton that disagrees with the others
+   (its median skeleton epipolar distance to them above ``options.consistency`` times the
+   frame's reference, the median over every track's pairs of views) is not taken (a false
+   skeleton, or the crossing partner's).
 2. Deaths: a track with no skeleton for more than ``options.max_missed`` frames ends; the
    frames it coasted after its last skeleton are dropped from its estimates. A track assigned
-   skeletons in fewer than ``min_views`` views (but some) for more than
+   skeletons in fewer views than its support needs (but some) for more than
    ``options.max_under_viewed`` consecutive frames ends too (a ghost living on a detector's
-   false skeletons seen by one or two cameras), its frames after the last one seen in
-   ``min_views`` views dropped.
+   false skeletons seen by one or two cameras: its support went), its frames after the last
+   one with support dropped.
 3. Births: the skeletons no track took are associated across views as at the start-up
-   (``min_views``: a false skeleton seen by one or two cameras is no newcomer; and
-   ``options.consistency``: the views must agree about as well as a tracked person's do, not
-   by the chance agreement of false skeletons); each such person, triangulated, is a
+   (with support: a false skeleton seen by one or two cameras that others should see is no
+   newcomer; and ``options.consistency``: the views must agree about as well as a tracked
+   person's do, not by the chance agreement of false skeletons); each such person, triangulated, is a
    candidate unless it lies within ``options.radius`` m of a live track (its median keypoint
    against the track's median landmark; tracks coasting for more than ``confirm_frames``
    aside). A candidate seen in ``options.confirm_frames`` consecutive frames, each within
@@ -60,7 +67,14 @@ from mocap.energy.markers import arrange_detections, pinhole_project
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import FrameEstimate, Needs, SearchBudget, Tracks, Uncached
 from mocap.trackers.diagnostics import StepDiagnostics
-from mocap.trackers.markers.associate import Skeletons, associate_people, person_detections, skeletons_of
+from mocap.trackers.markers.associate import (
+    Skeletons,
+    associate_people,
+    person_detections,
+    projected_boxes,
+    skeletons_of,
+    views_expected,
+)
 from mocap.trackers.markers.batch import PeopleEnergy, anneal_people
 from mocap.trackers.markers.refine import refine_people
 from mocap.trackers.markers.settings import PeopleOptions
@@ -72,7 +86,7 @@ from mocap.trackers.markers.tracker import MarkerAPFTracker
 class Track:
     """One person: ``born`` the frame of its first estimate, ``last_seen`` the last frame with a
     skeleton assigned, ``views`` the views it was last assigned skeletons in, ``last_well`` the
-    last frame it was assigned skeletons in ``min_views`` views or more, ``under`` the frames
+    last frame it was assigned skeletons in the views its support needs, ``under`` the frames
     since then with skeletons in fewer views, ``ended`` once it has been missed for more than
     ``max_missed`` frames or under-viewed for more than ``max_under_viewed``; ``estimates``:
     {frame: estimate} (no entries after ``last_seen``, resp. ``last_well``, once ended)."""
@@ -149,6 +163,7 @@ class PeopleTracker:
         self.start_up_flags: list[str] = []
         self._probe: MarkerAPFTracker | None = None
         self._reference: float | None = None        # px: how well a tracked person's views agree
+        self._needed: list[int] = []                 # per live track: views its support needs
 
     # -- set-up ------------------------------------------------------------------------
     def check_sequence(self, seq) -> None:
@@ -175,11 +190,12 @@ class PeopleTracker:
         if sk is None:
             raise ValueError("several people need detections grouped into skeletons (Detections.person)")
         people = associate_people(sk, probe.F, self._association_px(), min_views=self.min_views)
+        people = self._supported(det, sk, people)
         if self.options.consistency and people:
-            self._reference = float(np.median([d for _, d in people]))
-            people = [(p, d) for p, d in people if d <= self.options.consistency * self._reference]
+            self._reference = float(np.median([d for _, d, _ in people]))
+            people = [(p, d, c) for p, d, c in people if d <= self.options.consistency * self._reference]
         tracks = [self._new_track(n, frame.index, person_detections(det, sk, person))
-                  for n, (person, _) in enumerate(people)]
+                  for n, (person, _, _) in enumerate(people)]
         self.tracks = self._chosen(tracks)
         self.births = {frame.index: [t.id for t in self.tracks]}
         self.deaths = {}
@@ -188,8 +204,60 @@ class PeopleTracker:
 
     @property
     def min_views(self) -> int:
-        """Views a person must be associated in (``options.min_views``; auto: 3 with 4+ cameras)."""
-        return self.options.views_needed(len(self._probe_tracker().rig))
+        """Views a person must be associated in whatever the others show (``options.min_views``)."""
+        return self.options.min_views
+
+    def views_needed(self, points: np.ndarray, seen: np.ndarray, others: Sequence[np.ndarray]) -> int:
+        """Views a person with keypoints ``points`` (L, 3) world m (NaN: unknown), seen in the
+        views ``seen`` (C,) bool, must be seen in (:meth:`PeopleOptions.views_needed`): more than
+        ``options.support`` of the views that should see it
+        (:func:`~mocap.trackers.markers.associate.views_expected`: its keypoints in the image, no
+        one of ``others`` (each (L', 3) world m: the other people known) nearer the camera
+        covering ``options.hidden`` of its box), the views it is seen in counted among them."""
+        u, depth = self._project(points[None])
+        if others:
+            ou, odepth = self._project(np.stack(others))
+        else:
+            C = len(seen)
+            ou, odepth = np.zeros((0, 1, C, 2)), np.zeros((0, 1, C))
+        return self._needed_at(u[0], depth[0], seen, *projected_boxes(ou, odepth))
+
+    def _project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """points (P, L, 3) world m (NaN: unknown) -> undistorted pixels (P, L, C, 2) and depths
+        (P, L, C), NaN where unknown."""
+        u, depth = pinhole_project(self._probe_tracker().pinhole, np.where(np.isfinite(points), points, 0.0))
+        bad = ~np.all(np.isfinite(points), axis=-1)
+        u[bad], depth[bad] = np.nan, np.nan
+        return u, depth
+
+    def _needed_at(self, u: np.ndarray, depth: np.ndarray, seen: np.ndarray, others_box: np.ndarray,
+                   others_depth: np.ndarray) -> int:
+        """:meth:`views_needed` of keypoints projected to u (L, C, 2) at depth (L, C), the
+        others' boxes (P, C, 4) and depths (P, C) (:func:`projected_boxes`)."""
+        sizes = np.asarray(self._probe_tracker().pinhole.sizes)
+        expected = views_expected(u, depth, sizes, others_box, others_depth, self.options.hidden) | seen
+        return self.options.views_needed(int(expected.sum()))
+
+    def _supported(self, det: Detections, free: Skeletons, people: list[tuple[list[int | None], float]]
+                   ) -> list[tuple[list[int | None], float, np.ndarray]]:
+        """The associated people (skeleton indices in ``free``) seen in the views their support
+        needs (:meth:`views_needed`, no one counted as hiding them: a newcomer shows itself in
+        most of the views whose image holds it), as (person, distance, triangulated keypoints
+        (L, 3)); a person that triangulates (median keypoint) within ``options.radius`` of one
+        kept before it is that one's leftover skeletons, dropped."""
+        kept = []
+        for person, d in people:
+            X = self._points(person_detections(det, free, person))
+            if np.isfinite(X[:, 0]).sum() < 3:
+                continue
+            seen = np.array([i is not None for i in person])
+            if seen.sum() < self.views_needed(X, seen, []):
+                continue
+            centre = np.nanmedian(X, axis=0)
+            if any(np.linalg.norm(centre - np.nanmedian(k[2], axis=0)) < self.options.radius for k in kept):
+                continue
+            kept.append((person, d, X))
+        return kept
 
     def _association_px(self) -> float:
         probe = self._probe_tracker()
@@ -234,6 +302,7 @@ class PeopleTracker:
         skeletons (view, index in ``sk``) they come from."""
         det = frame.detections
         probe = self._probe_tracker()
+        self._needed = [self.min_views for _ in live]
         if sk is None:
             sk = skeletons_of(det, probe.landmarks.names, probe.rig)
         if sk is None:                                      # no grouping: everyone sees everything
@@ -256,6 +325,12 @@ class PeopleTracker:
                     taken[i].append((c, int(j)))
         if self.options.consistency:
             taken = self._consistent(sk, taken)
+        self._needed = []
+        boxes, near = projected_boxes(u, depth)                                     # (T, C, 4), (T, C)
+        for i, tk in enumerate(taken):
+            seen = np.isin(np.arange(len(sk.xy)), [c for c, _ in tk])
+            rest = np.arange(len(live)) != i
+            self._needed.append(self._needed_at(u[i], depth[i], seen, boxes[rest], near[rest]))
         for i, tk in enumerate(taken):
             for c, j in tk:
                 keep[i] |= (det.view == c) & (det.person == sk.ids[c][j])
@@ -305,14 +380,16 @@ class PeopleTracker:
             rows, taken = self.assign(frame, live, sk)
         else:
             rows, taken = [np.zeros(0 if det is None else len(det), bool) for _ in live], [[] for _ in live]
+            self._needed = [self.min_views for _ in live]
         used: list[set[int]] = [set() for _ in (sk.xy if sk is not None else ())]
         out = {}
         stepping: list[tuple[Track, Frame]] = []
-        for t, mine, tk in zip(live, rows, taken, strict=True):
+        for t, mine, tk, needed in zip(live, rows, taken, self._needed, strict=True):
             # back after missed frames, or seen in fewer views than before: someone else may be
             # standing where the track coasts (a newcomer next to where a person left); back
-            # after coasting longer than confirm_frames only in min_views views, as a newcomer
-            if mine.any() and t.missed > self.options.confirm_frames and len(tk) < self.min_views:
+            # after coasting longer than confirm_frames only in the views its support needs,
+            # as a newcomer
+            if mine.any() and t.missed > self.options.confirm_frames and len(tk) < needed:
                 mine = np.zeros_like(mine)
                 tk = []
             if mine.any() and (t.missed or len(tk) < t.views) and not self._same_person(t, _only(det, mine)):
@@ -320,7 +397,7 @@ class PeopleTracker:
                 tk = []
             if tk:
                 t.views = len(tk)
-                if len(tk) >= self.min_views:
+                if len(tk) >= needed:
                     t.last_well, t.under = f, 0
                 else:
                     t.under += 1
@@ -406,11 +483,16 @@ class PeopleTracker:
                 return False
         return True
 
-    def _centre(self, det: Detections) -> np.ndarray | None:
-        """(3,) median of one person's triangulated keypoints (None: fewer than 3 triangulated)."""
+    def _points(self, det: Detections) -> np.ndarray:
+        """(L, 3) one person's triangulated keypoints, world m (NaN: not triangulated)."""
         probe = self._probe_tracker()
         X, _ = triangulate_candidates(probe.pinhole, arrange_detections(
             det, probe.landmarks.names, probe.rig, probe.min_confidence), probe.likelihood.gate_px)
+        return X
+
+    def _centre(self, det: Detections) -> np.ndarray | None:
+        """(3,) median of one person's triangulated keypoints (None: fewer than 3 triangulated)."""
+        X = self._points(det)
         return np.nanmedian(X, axis=0) if np.isfinite(X[:, 0]).sum() >= 3 else None
 
     def _same_person(self, t: Track, det: Detections) -> bool:
@@ -436,16 +518,15 @@ class PeopleTracker:
         if o.consistency and people:
             if self._reference is not None:
                 people = [(p, d) for p, d in people if d <= o.consistency * self._reference]
+        people = self._supported(det, free, people)
         # a live track blocks a candidate next to it (a skeleton of its person it did not take),
         # unless it has coasted longer than confirm_frames (a newcomer where someone left)
         centres = [np.median(self._landmarks(t), axis=0) for t in self.tracks
                    if not t.ended and t.missed <= o.confirm_frames]
         seen: list[Candidate] = []
-        for person, _ in people:
+        for person, _, X in people:
             pdet = person_detections(det, free, person)
-            centre = self._centre(pdet)
-            if centre is None:
-                continue
+            centre = np.nanmedian(X, axis=0)
             if any(np.linalg.norm(centre - c) < o.radius for c in centres):
                 continue                          # a live track's skeleton it did not take
             before = [k for k in self.candidates if np.linalg.norm(k.centre - centre) < o.radius]

@@ -5,6 +5,7 @@ keypoint offsets (:class:`~mocap.trackers.markers.offsets.OffsetLearning`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from mocap.energy.marker_likelihood import MarkerLikelihood
@@ -171,25 +172,32 @@ class MarkerSettings(APFSettings):
 @dataclass(frozen=True)
 class PeopleOptions:
     """Several people (``marker_people``, :mod:`mocap.trackers.markers.people`): ``min_views``:
-    views a person must be associated in (start-up and newcomers; null: 3 where the rig has 4
-    or more cameras, else 2, :meth:`views_needed`: a false skeleton a detector sees in one or
-    two views never becomes a track); ``confirm_frames``: a newcomer (skeletons no track took,
-    consistent across ``min_views`` views) gets a track once seen in this many consecutive
-    frames, each time within ``radius`` m (its triangulated keypoints' median) of where it was
-    the frame before and farther than ``radius`` from every live track; ``max_missed``: a
-    track with no skeleton assigned in any view for more frames than this ends (the person
-    left; the frames it coasted after its last skeleton are dropped); ``max_under_viewed``: a
-    track assigned skeletons in fewer than ``min_views`` views for more consecutive frames than
+    views a person must be associated in (start-up and newcomers): 2, what triangulation needs;
+    ``support``: and more than this fraction of the views that should see it
+    (:meth:`views_needed`; the views whose image holds its keypoints,
+    :func:`mocap.trackers.markers.associate.views_expected`): a false skeleton a detector sees
+    in two views of five that all look at that place never becomes a track, a person outside the
+    other cameras' images does (0: ``min_views`` alone); ``hidden``: once tracked, a view where
+    another tracked person nearer the camera covers this fraction of its keypoints' box does not
+    count against it (occlusion); ``confirm_frames``: a newcomer (skeletons no track took,
+    consistent across the views needed) gets a track once seen in this many consecutive frames,
+    each time within ``radius`` m (its triangulated keypoints' median) of where it was the frame
+    before and farther than ``radius`` from every live track; ``max_missed``: a track with no
+    skeleton assigned in any view for more frames than this ends (the person left; the frames it
+    coasted after its last skeleton are dropped); ``max_under_viewed``: a track assigned
+    skeletons in fewer views than needed (its support gone) for more consecutive frames than
     this ends too (a ghost that took a false skeleton; the frames after its last frame seen in
-    ``min_views`` views are dropped); ``consistency``: a person is started (at the start-up or
-    as a newcomer) only when the mean pairwise epipolar distance of its skeletons across views
-    is at most this many times the frame's reference, the median of that distance over the
-    people already tracked (their assigned skeletons; at the start-up over the people
-    associated): a real person's views agree to the detector's noise, a chance agreement of
-    false skeletons several times more loosely (0: off); ``births``: False tracks only the
-    people of the first frame."""
+    the views needed are dropped); ``consistency``: a person is started (at the start-up or as a
+    newcomer) only when the mean pairwise epipolar distance of its skeletons across views is at
+    most this many times the frame's reference, the median of that distance over the people
+    already tracked (their assigned skeletons; at the start-up over the people associated): a
+    real person's views agree to the detector's noise, a chance agreement of false skeletons
+    several times more loosely (0: off); ``births``: False tracks only the people of the first
+    frame."""
 
-    min_views: int | None = None
+    min_views: int = 2
+    support: float = 0.5
+    hidden: float = 0.75
     confirm_frames: int = 3
     max_missed: int = 10
     max_under_viewed: int = 10
@@ -198,19 +206,19 @@ class PeopleOptions:
     births: bool = True
 
     def __post_init__(self) -> None:
-        check(self, "min_views", self.min_views is None or self.min_views >= 2,
-              "null (auto) or an integer >= 2 (a person is triangulated)")
+        check(self, "min_views", self.min_views >= 2, "an integer >= 2 (a person is triangulated)")
+        check(self, "support", 0 <= self.support < 1, "in [0, 1)")
+        check(self, "hidden", 0 < self.hidden <= 1, "in (0, 1]")
         check(self, "confirm_frames", self.confirm_frames >= 1, "an integer >= 1")
         check(self, "max_missed", self.max_missed >= 0, "an integer >= 0")
         check(self, "max_under_viewed", self.max_under_viewed >= 0, "an integer >= 0")
         check(self, "radius", self.radius > 0, "> 0 m")
         check(self, "consistency", self.consistency == 0 or self.consistency >= 1, "0 (off) or >= 1")
 
-    def views_needed(self, cameras: int) -> int:
-        """``min_views`` for a rig of ``cameras`` views (null: 3 with 4+ cameras, else 2)."""
-        if self.min_views is not None:
-            return self.min_views
-        return 3 if cameras >= 4 else 2
+    def views_needed(self, expected: int) -> int:
+        """Views a person must be seen in when ``expected`` views should see it: ``min_views``,
+        and more than ``support`` x ``expected`` (with 0.5: 3 of 4 or 5, 2 of 2 or 3)."""
+        return max(self.min_views, math.floor(self.support * expected) + 1)
 
 
 @dataclass(frozen=True)
