@@ -10,6 +10,8 @@ run folder, metrics.json, init and oracle caches), in variants:
   is the self-initialisation's, refined with the keypoints on that shape);
 - ``joint``: the same with the JOINT oracle's shape (our body fitted to the true joints,
   :func:`mocap.eval.run_metrics.oracle_fit`);
+- ``mix``: the same with ``--mix`` t x the joint oracle's shape + (1 - t) x the surface oracle's
+  (is there a shape between the two that beats the tracker's own on both measures?);
 - ``--set key=value`` (dotted tracker overrides) applies to every variant (e.g. a candidate fix;
   ``--tag`` names the folder).
 
@@ -118,7 +120,8 @@ def breakdown(body, seq, result, shapes: dict) -> dict:
             "alpha_from": {k: round(float(np.linalg.norm(alpha - v)), 2) for k, v in shapes.items()}}
 
 
-def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str], out: Path) -> dict:
+def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str], out: Path,
+                mix: float = 0.5) -> dict:
     from mocap.run_folder import run_tracking
     from mocap_cli.hydra_edge import build, compose, plain
 
@@ -131,12 +134,12 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
     body = build(cfg.body)
     seq = build(cfg.data, body=body)
     shapes = oracle_shapes(body, seq, frames, out / "shapes")
+    fixed = {**shapes, "mix": mix * shapes["joint"] + (1.0 - mix) * shapes["surface"]}.get(variant)
 
     def make_tracker(**objects):
         tracker = build(cfg.tracker, **objects)
         if variant != "base":
             inner = tracker.refine_initial
-            fixed = shapes[variant]
 
             def refine_initial(frame, chi, alpha):
                 return inner(frame, chi, fixed)
@@ -145,9 +148,10 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
         return tracker
 
     def extra(metrics, result, body, seq):
-        return {"shape_split": {"variant": variant, "sets": sets, **breakdown(body, seq, result, shapes)}}
+        name = f"mix {mix:g}" if variant == "mix" else variant
+        return {"shape_split": {"variant": name, "sets": sets, **breakdown(body, seq, result, shapes)}}
 
-    folder = out / variant / f"real_{data}"
+    folder = out / (f"mix{mix:g}" if variant == "mix" else variant) / f"real_{data}"
     metrics = run_tracking(folder, plain(cfg), make_body=lambda: body, make_sequence=lambda b: seq,
                            make_tracker=make_tracker, source=Path.cwd(), extra=extra,
                            overrides=overrides + [f"shape_split={variant}"])
@@ -189,7 +193,9 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("sequences", nargs="*", help="dev sequence folder names (data/real_motion/dev/...)")
     p.add_argument("--variants", nargs="+", default=["base", "surface", "joint"],
-                   choices=["base", "surface", "joint"])
+                   choices=["base", "surface", "joint", "mix"])
+    p.add_argument("--mix", type=float, default=0.5, help="mix: t x the joint oracle's shape + (1 - t) x the "
+                   "surface oracle's")
     p.add_argument("--frames", type=int, default=40)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--set", nargs="*", default=[], help="tracker overrides key=value (dotted), every variant")
@@ -204,7 +210,8 @@ def main(argv=None) -> None:
         yaml.safe_load(kv.split("=", 1)[1])                 # a bad value fails before any work
     for data in a.sequences:
         for variant in a.variants:
-            m = run_variant(data, variant, a.frames, a.seed, a.set, a.out if not a.tag else a.out / a.tag)
+            m = run_variant(data, variant, a.frames, a.seed, a.set, a.out if not a.tag else a.out / a.tag,
+                            a.mix)
             s = m["shape_split"]
             print(f"{data} [{variant}{' ' + a.tag if a.tag else ''}] joints {m['mpjpe_mm']:.1f} mm "
                   f"({m['mpjpe_mm'] / m['oracle']['raw_mm']:.2f}x), offset-removed "
