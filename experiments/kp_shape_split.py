@@ -24,7 +24,7 @@ and true lengths (mean over frames, mm). The oracles' shapes are kept in
 
     python -m experiments.kp_shape_split walk_heavy_man bow_tall_man bye_petite_woman \\
         --variants base surface joint --frames 40 --seed 0 --out multirun/kp_split
-    python -m experiments.kp_shape_split --report multirun/kp_split
+    python -m experiments.kp_shape_split --report multirun/kp_split [--noise]
 """
 
 from __future__ import annotations
@@ -160,7 +160,39 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
     return metrics
 
 
-def report(out: Path) -> str:
+def slow_and_jitter(run: Path, smooth: int = 5) -> tuple[float, float, float, dict]:
+    """A finished run's offset-removed joint error split in two (mm, mean over joints and frames): the
+    slow part (the error's centred ``smooth``-frame mean less its constant offset) and the jitter (the
+    error less that mean); the raw error with the error's mean taken (a bound on what a smoother of
+    the error could give); and per joint (slow, jitter). From the run's motion.npz and its data."""
+    from mocap.body import load_body
+    from mocap.data.sources import folder_sequence
+    from mocap.eval.by_name import NameScorer
+
+    m = json.loads((run / "metrics.json").read_text())
+    body = load_body("paper22")
+    seq = folder_sequence(body=body, path=m["config"]["data"]["path"], name=m["data"], seed=m["seed"])
+    z = np.load(run / "motion.npz")
+    scorer = NameScorer(body, seq.gt.person(0))
+    pts = scorer.points_by_shape(z["alpha"], z["chi"])
+    gt = scorer.gt
+    names = [n for n in gt.joint_names if scorer.mapping.get(n) is not None
+             and (not scorer.kwargs["only"] or n in scorer.kwargs["only"])]
+    F = len(z["chi"])
+    col = {n: list(gt.joint_names).index(n) for n in names}
+    d = np.stack([1e3 * (np.asarray(pts[scorer.mapping[n]])[:F] - gt.joints[:F, col[n]]) for n in names],
+                 1)                                                                   # (F, J, 3) mm
+    off = d.mean(axis=0)
+    h = smooth // 2
+    padded = np.concatenate([np.repeat(d[:1], h, 0), d, np.repeat(d[-1:], h, 0)])
+    mean = np.stack([padded[i:i + F] for i in range(smooth)]).mean(axis=0)            # centred window
+    slow, jit = np.linalg.norm(mean - off, axis=-1), np.linalg.norm(d - mean, axis=-1)    # (F, J)
+    per = {n: (round(float(slow[:, j].mean()), 1), round(float(jit[:, j].mean()), 1))
+           for j, n in enumerate(names)}
+    return float(slow.mean()), float(jit.mean()), float(np.linalg.norm(mean, axis=-1).mean()), per
+
+
+def report(out: Path, noise: bool = False) -> str:
     """Per variant and sequence: joints, x oracle, offset-removed, surface, x surface oracle; then
     the joints carrying the offset and the bones off by most."""
     lines = ["| variant | sequence | joints mm | x oracle | offset-removed mm | surface mm | "
@@ -182,6 +214,12 @@ def report(out: Path) -> str:
                      f"{m.get('frames_lost', 0)} |")
         j = sorted(s["joints"].items(), key=lambda kv: -kv[1]["offset_mm"])[:6]
         b = sorted(s["bones"].items(), key=lambda kv: -abs(kv[1]["diff"]))[:6]
+        if noise:
+            slow, jit, smoothed, per = slow_and_jitter(m_path.parent)
+            detail.append(f"{v} {m['data'].removeprefix('real_')}: offset-removed error: slow {slow:.1f}, "
+                          f"jitter {jit:.1f} mm (error's 5-frame mean {smoothed:.1f} mm against "
+                          f"{m['mpjpe_mm']:.1f}); "
+                          + ", ".join(f"{n} {a_}/{b_}" for n, (a_, b_) in per.items()))
         detail.append(f"{v} {m['data'].removeprefix('real_')}: offsets "
                       + ", ".join(f"{n} {d['offset_mm']:.0f} {d['offset']} (left {d['removed_mm']:.0f})"
                                   for n, d in j)
@@ -202,9 +240,11 @@ def main(argv=None) -> None:
     p.add_argument("--out", type=Path, default=Path("multirun/kp_split"))
     p.add_argument("--tag", default="", help="suffix of the variants' folders (a --set candidate)")
     p.add_argument("--report", type=Path, help="print the table of a finished --out folder and stop")
+    p.add_argument("--noise", action="store_true", help="with --report: the offset-removed error's slow part "
+                   "and jitter per run (reads motion.npz)")
     a = p.parse_args(argv)
     if a.report:
-        print(report(a.report))
+        print(report(a.report, a.noise))
         return
     for kv in a.set:
         yaml.safe_load(kv.split("=", 1)[1])                 # a bad value fails before any work
