@@ -131,6 +131,7 @@ class HybridTracker(LocalTracker):
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
         self.shape_prior: np.ndarray | None = None      # the silhouettes' shape, the keypoint fits' prior
+        self.shape_moved = False         # a silhouette shape refinement was kept since the last keypoint fit
 
     @property
     def budget(self) -> SearchBudget:
@@ -272,13 +273,20 @@ class HybridTracker(LocalTracker):
     def refit_shape(self) -> dict | None:
         """Once the keypoints of ``keypoints.shape_frames`` (> 1) frames are triangulated, fit the
         shape to their median bone lengths (:meth:`KeypointCue.shape_over_frames`, the prior on the
-        silhouettes' shape) and track on with it; its report (None: not this frame)."""
+        silhouettes' shape) and track on with it; its report (None: not this frame). With
+        ``keypoints.shape_follow`` the prior is centred on the current shape, and the fit is made
+        again (to all frames so far) after every kept silhouette shape refinement."""
         cue = self.cue
-        if (cue is None or self.shape_prior is None or cue.settings.shape_frames < 2
-                or len(cue.shape_samples) != cue.settings.shape_frames):
+        if cue is None or cue.settings.shape_frames < 2:
             return None
-        alpha, report = cue.shape_over_frames(self.shape_prior)
-        self.shape_prior = None                                  # once
+        n, follow = len(cue.shape_samples), cue.settings.shape_follow
+        first = self.shape_prior is not None and n == cue.settings.shape_frames
+        again = follow and self.shape_prior is None and self.shape_moved and n > cue.settings.shape_frames
+        if not (first or again):
+            return None
+        alpha, report = cue.shape_over_frames(np.asarray(self.shaped.alpha, np.float64) if follow
+                                              else self.shape_prior)
+        self.shape_prior, self.shape_moved = None, False
         self.set_shape(alpha)
         return report
 
@@ -339,9 +347,12 @@ class HybridTracker(LocalTracker):
             if accepted:
                 verts = self.shaped.pose(chi).vertices[0]
         chi, shape = self.finish_step(frame, chi, verts, not check.names, timings)
+        self.shape_moved = self.shape_moved or bool(shape is not None and shape.accepted)
         if obs is not None:
             self.cue.learn_offsets(self.shaped, chi, obs)
-            if self.shape_prior is not None and len(self.cue.shape_samples) < self.cue.settings.shape_frames:
+            ks = self.cue.settings
+            if ((self.shape_prior is not None and len(self.cue.shape_samples) < ks.shape_frames)
+                    or (ks.shape_follow and ks.shape_std > 0 and ks.shape_frames > 1)):
                 self.cue.add_shape_sample(obs)
         return Estimate(chi=chi, alpha=self.shaped.alpha,
                         diagnostics=dataclasses.replace(report, shape=shape, timings=timings))

@@ -152,8 +152,13 @@ class KeypointSettings:
     model's standardised units; 0: keep the silhouettes' shape); ``shape_frames``: with
     ``shape_std`` > 0 and N > 1, the shape is fitted again (same prior) when N frames are in,
     to the median of their triangulated bone lengths (one frame's are off by the detections'
-    noise, and that error would stay for the whole sequence). Silhouettes measure the body's
-    outline, keypoints its bone lengths, which the outline hardly constrains."""
+    noise, and that error would stay for the whole sequence); ``shape_follow``: with
+    ``shape_frames`` > 1, the keypoints of every frame are kept, the N-frame fit's prior is
+    centred on the tracker's current shape (the silhouettes' refinements so far) instead of the
+    start's, and after every silhouette shape refinement that was kept (``local.shape.every``)
+    the shape is fitted again the same way to the median of all frames so far: each cue corrects
+    the other while tracking. Silhouettes measure the body's outline, keypoints its bone lengths,
+    which the outline hardly constrains."""
 
     weight: float = 0.0
     energy: float = 1.0
@@ -166,6 +171,7 @@ class KeypointSettings:
     init: bool = True
     shape_std: float = 0.0
     shape_frames: int = 1
+    shape_follow: bool = False
 
     def __post_init__(self) -> None:
         check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")

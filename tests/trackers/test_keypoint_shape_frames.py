@@ -92,3 +92,34 @@ def test_the_tracker_refits_its_shape_once_when_the_frames_are_in(body, seq):
     frames 0-2) and not again. shape_frames=1: the start-up's shape throughout."""
     assert shape_changes(run(body, seq, shape_frames=3)) == [3]
     assert shape_changes(run(body, seq, shape_frames=1)) == []
+
+
+def test_following_refits_on_the_current_shape_after_a_kept_silhouette_refinement(body, seq):
+    """shape_follow: every frame's keypoints are kept (6 of 6, against shape_frames=3 without it);
+    no silhouette refinement in 6 frames (local.shape.every 10), so the shape changes at frame 3
+    only; once a silhouette refinement is kept, the next refit is the fit to all 6 frames' median
+    lengths with the prior centred on the current shape (not the start's), made once."""
+    t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST,
+                     keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3, "shape_follow": True})
+    chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
+    assert shape_changes(track_sequence(t, seq, chi, alpha).estimates) == [3]
+    assert len(t.cue.shape_samples) == 6
+    assert t.refit_shape() is None                       # no silhouette refinement kept: no refit
+    current = np.array(t.shaped.alpha, np.float64)
+    want, _ = shape_from_frames(body, t.cue.landmarks, np.stack(t.cue.shape_samples), MarkerInit(), current,
+                                1.0)
+    t.shape_moved = True
+    assert t.refit_shape()["frames"] == 6
+    np.testing.assert_allclose(t.shaped.alpha, want, atol=1e-5)
+    assert not np.allclose(want, current, atol=1e-3)      # the fit moved the shape
+    assert t.refit_shape() is None                       # once per kept refinement
+
+
+def test_without_following_only_the_first_frames_keypoints_are_kept(body, seq):
+    t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST,
+                     keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3})
+    chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
+    track_sequence(t, seq, chi, alpha)
+    assert len(t.cue.shape_samples) == 3
+    t.shape_moved = True
+    assert t.refit_shape() is None
