@@ -116,7 +116,7 @@ def silhouette_target(masks: np.ndarray, scale: float = 1.0, margin: int = 12,
     """Observed side of Eq. 11 from (C, H, W) camera-resolution masks."""
     small = downscale_masks(masks, scale)
     C, h, w = small.shape
-    area = small.reshape(C, -1).sum(axis=1)
+    area = np.count_nonzero(small.reshape(C, -1), axis=1)
     valid = area > 0
     names = view_names or tuple(f"view {c}" for c in range(C))
     if not valid.any():
@@ -124,9 +124,9 @@ def silhouette_target(masks: np.ndarray, scale: float = 1.0, margin: int = 12,
     dt = distance_transform(small, empty_value=0.0)
     boxes = np.zeros((C, 4), dtype=np.int64)
     for c in np.flatnonzero(valid):
-        ys, xs = np.nonzero(small[c])
-        boxes[c] = (max(0, xs.min() - margin), max(0, ys.min() - margin),
-                    min(w, xs.max() + 1 + margin), min(h, ys.max() + 1 + margin))
+        x, y, bw, bh = cv2.boundingRect(small[c].view(np.uint8))    # the set pixels' box
+        boxes[c] = (max(0, x - margin), max(0, y - margin),
+                    min(w, x + bw + margin), min(h, y + bh + margin))
     return SilhouetteTarget(masks=small, dt=dt, area=area, boxes=boxes, valid=valid,
                             ignored=tuple(n for n, v in zip(names, valid, strict=True) if not v))
 

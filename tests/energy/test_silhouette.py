@@ -120,3 +120,16 @@ def test_block_cropped_area_resize_is_cv2s_whole_image_resize(sizes):
         np.testing.assert_array_equal(_resize_area(m, w, h),
                                       cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA))
     np.testing.assert_array_equal(_resize_area(np.zeros((H, W), np.uint8), w, h), 0)
+
+
+def test_target_boxes_are_the_observed_pixels_extent_grown_by_the_margin():
+    """boxes: the min / max + 1 of the set pixels' coordinates, grown by the margin and clipped
+    to the image; area: the set pixels' counts."""
+    masks = np.zeros((3, 40, 50), bool)
+    masks[0, 5:9, 7:30] = True
+    masks[0, 20, 3] = True
+    masks[1, 0, 49] = True
+    masks[2, 30:40, 0:2] = True
+    t = silhouette_target(masks, 1.0, margin=4)
+    np.testing.assert_array_equal(t.boxes, [[0, 1, 34, 25], [45, 0, 50, 5], [0, 26, 6, 40]])
+    np.testing.assert_array_equal(t.area, [4 * 23 + 1, 1, 20])
