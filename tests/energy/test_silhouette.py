@@ -102,7 +102,7 @@ def test_block_cropped_area_resize_is_cv2s_whole_image_resize(sizes):
     """_resize_area resamples only whole blocks around the nonzero pixels: equal to
     cv2.resize(INTER_AREA) of the whole image, for integer, dyadic and other scales (the last
     two fall back to the whole image), a blob anywhere (edges included), scattered pixels,
-    and an empty image."""
+    and an empty image; a 0 / 1 image with gain 255 as the 0 / 255 one."""
     import cv2
 
     from mocap.energy.silhouette import _resize_area
@@ -117,8 +117,10 @@ def test_block_cropped_area_resize_is_cv2s_whole_image_resize(sizes):
         m[((yy - cy) / ry) ** 2 + ((xx - cx) / rx) ** 2 < 1] = 255
         if trial % 3 == 2:
             m[rng.random((H, W)) < 0.001] = 255
-        np.testing.assert_array_equal(_resize_area(m, w, h),
-                                      cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA))
+        want = cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA)
+        np.testing.assert_array_equal(_resize_area(m, w, h), want)
+        # the 0 / 1 mask with the gain 255 applied to the crop only: the same image
+        np.testing.assert_array_equal(_resize_area(m // 255, w, h, gain=255), want)
     np.testing.assert_array_equal(_resize_area(np.zeros((H, W), np.uint8), w, h), 0)
 
 
