@@ -96,6 +96,23 @@ class PriorProvenance:
         return PriorProvenance(**known)
 
 
+def logsumexp_rows(a: np.ndarray) -> np.ndarray:
+    """scipy.special.logsumexp(a, axis=1) of a (P, T) float64 -> (P,), with scipy's arithmetic
+    (the maxima taken out of the sum, log1p of the rest over their count: the same bits,
+    tested) without its array-API dispatch. Rows with a non-finite maximum go to scipy."""
+    a = np.asarray(a, np.float64)
+    if a.ndim != 2 or a.shape[1] == 0:
+        raise ValueError(f"a must be (P, T) with T > 0, got {a.shape}")
+    a_max = a.max(axis=1, keepdims=True)
+    if not np.isfinite(a_max).all():
+        return logsumexp(a, axis=1)
+    top = a == a_max
+    m = top.sum(axis=1, keepdims=True, dtype=np.float64)
+    s = np.exp(np.where(top, -np.inf, a) - a_max).sum(axis=1, keepdims=True)
+    s = np.where(s == 0, s, s / m)
+    return (np.log1p(s) + np.log(m) + a_max)[:, 0]
+
+
 @dataclass(frozen=True)
 class ParzenPrior:
     """Training poses (T, n) over the named DOFs, the kernel width sigma, a one-line source
@@ -134,7 +151,7 @@ class ParzenPrior:
         """E_learned = -log p (Eq. 15-16). angles: (P, n) in ``dof_names`` order -> (P,)."""
         d2 = self.squared_distances(angles)                                    # (P, T)
         T = len(self.samples)
-        log_p = logsumexp(-d2 / (2 * self.sigma**2), axis=1) - np.log(np.sqrt(2 * np.pi) * self.sigma * T)
+        log_p = logsumexp_rows(-d2 / (2 * self.sigma**2)) - np.log(np.sqrt(2 * np.pi) * self.sigma * T)
         return -log_p
 
     def save(self, path: str | Path) -> Path:

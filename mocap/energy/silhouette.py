@@ -75,16 +75,15 @@ def downscale_masks(masks: np.ndarray, scale: float) -> np.ndarray:
         return masks.astype(bool)
     out = np.empty((len(masks), h, w), dtype=bool)
     for c, m in enumerate(masks):
-        # 0 / 255 without a bool -> int copy (np.multiply on the bytes: 0.04 ms against 1 ms
-        # for m.astype(np.uint8) * 255 at 1004 px; the same image)
-        m = np.asarray(m, dtype=bool)
-        m255 = np.multiply(m.view(np.uint8), 255, dtype=np.uint8)
-        out[c] = _resize_area(m255, w, h) >= 128
+        # the 0 / 1 bytes of the bool mask, made 0 / 255 only on the crop that is resized
+        # (a 0 / 255 copy of the whole 1004 px image: 1 MB written a view, ~0.1 ms)
+        out[c] = _resize_area(np.asarray(m, dtype=bool).view(np.uint8), w, h, gain=255) >= 128
     return out
 
 
-def _resize_area(image: np.ndarray, w: int, h: int) -> np.ndarray:
-    """cv2.resize(image, (w, h), INTER_AREA) of a 2D uint8 image that is mostly 0, on the
+def _resize_area(image: np.ndarray, w: int, h: int, gain: int = 1) -> np.ndarray:
+    """cv2.resize(gain * image, (w, h), INTER_AREA) of a 2D uint8 image that is mostly 0
+    (``gain * image`` within uint8: e.g. 255 for a 0 / 1 mask), on the
     crop of whole resampling blocks around its nonzero pixels: the same image, bit for bit
     (tested), at a fraction of the cost for a person in a large frame (1004 -> 251 px:
     0.76 -> 0.25 ms).
@@ -101,14 +100,19 @@ def _resize_area(image: np.ndarray, w: int, h: int) -> np.ndarray:
     gx, gy = math.gcd(W, w), math.gcd(H, h)
     sx, ox, sy, oy = W // gx, w // gx, H // gy, h // gy
     if ox & (ox - 1) or oy & (oy - 1):
-        return cv2.resize(image, (w, h), interpolation=cv2.INTER_AREA)
+        return cv2.resize(_gained(image, gain), (w, h), interpolation=cv2.INTER_AREA)
     bx0, bx1 = x // sx, -(-(x + bw) // sx)
     by0, by1 = y // sy, -(-(y + bh) // sy)
     out = np.zeros((h, w), np.uint8)
     out[by0 * oy:by1 * oy, bx0 * ox:bx1 * ox] = cv2.resize(
-        image[by0 * sy:by1 * sy, bx0 * sx:bx1 * sx], ((bx1 - bx0) * ox, (by1 - by0) * oy),
-        interpolation=cv2.INTER_AREA)
+        _gained(image[by0 * sy:by1 * sy, bx0 * sx:bx1 * sx], gain),
+        ((bx1 - bx0) * ox, (by1 - by0) * oy), interpolation=cv2.INTER_AREA)
     return out
+
+
+def _gained(image: np.ndarray, gain: int) -> np.ndarray:
+    """gain * image in uint8 (the image itself for gain 1)."""
+    return image if gain == 1 else np.multiply(image, gain, dtype=np.uint8)
 
 
 def silhouette_target(masks: np.ndarray, scale: float = 1.0, margin: int = 12,
@@ -116,7 +120,7 @@ def silhouette_target(masks: np.ndarray, scale: float = 1.0, margin: int = 12,
     """Observed side of Eq. 11 from (C, H, W) camera-resolution masks."""
     small = downscale_masks(masks, scale)
     C, h, w = small.shape
-    area = small.reshape(C, -1).sum(axis=1)
+    area = np.count_nonzero(small.reshape(C, -1), axis=1)
     valid = area > 0
     names = view_names or tuple(f"view {c}" for c in range(C))
     if not valid.any():
@@ -124,9 +128,9 @@ def silhouette_target(masks: np.ndarray, scale: float = 1.0, margin: int = 12,
     dt = distance_transform(small, empty_value=0.0)
     boxes = np.zeros((C, 4), dtype=np.int64)
     for c in np.flatnonzero(valid):
-        ys, xs = np.nonzero(small[c])
-        boxes[c] = (max(0, xs.min() - margin), max(0, ys.min() - margin),
-                    min(w, xs.max() + 1 + margin), min(h, ys.max() + 1 + margin))
+        x, y, bw, bh = cv2.boundingRect(small[c].view(np.uint8))    # the set pixels' box
+        boxes[c] = (max(0, x - margin), max(0, y - margin),
+                    min(w, x + bw + margin), min(h, y + bh + margin))
     return SilhouetteTarget(masks=small, dt=dt, area=area, boxes=boxes, valid=valid,
                             ignored=tuple(n for n, v in zip(names, valid, strict=True) if not v))
 

@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
 from scipy.spatial.distance import cdist
+from scipy.special import logsumexp
 
-from mocap.energy.prior import ParzenPrior, PosePrior, joint_limit_energy
+from mocap.energy.prior import ParzenPrior, PosePrior, joint_limit_energy, logsumexp_rows
 from mocap.energy.smoothness import predict_constant_velocity, smoothness_energy
 from mocap.energy.train_prior import training_poses
 
@@ -84,3 +85,20 @@ def test_prediction_of_a_heading_across_pi_continues_the_turn():
     expected = se3_exp(np.r_[0, 0, 0, 0, 0, np.pi + 0.3])[:3, :3]
     np.testing.assert_allclose(R, expected, atol=1e-9)
     assert abs(np.linalg.norm(so3_log(R)) - (np.pi - 0.3)) < 1e-9
+
+
+def test_logsumexp_rows_is_scipys_logsumexp_bit_for_bit():
+    """The prior's log-sum-exp without scipy's dispatch: the same bits as scipy's, ties of the
+    maximum included, and scipy's answer for a row with -inf or inf."""
+    rng = np.random.default_rng(3)
+    for shape in [(25, 3000), (1, 5), (7, 1), (4, 2)]:
+        for scale in [1e-3, 1.0, 50.0, 1e4]:
+            a = -rng.random(shape) * scale
+            a[:, -1] = a.max(axis=1)                  # a tie of the maximum (or a 1-wide row)
+            got, ref = logsumexp_rows(a), logsumexp(a, axis=1)
+            assert got.dtype == ref.dtype and got.shape == ref.shape
+            assert np.array_equal(got, ref), (shape, scale)
+    a = np.array([[0.0, -1.0], [-np.inf, -np.inf], [np.inf, 0.0]])
+    np.testing.assert_array_equal(logsumexp_rows(a), logsumexp(a, axis=1))
+    with pytest.raises(ValueError, match="must be"):
+        logsumexp_rows(np.zeros(3))

@@ -102,7 +102,7 @@ def test_block_cropped_area_resize_is_cv2s_whole_image_resize(sizes):
     """_resize_area resamples only whole blocks around the nonzero pixels: equal to
     cv2.resize(INTER_AREA) of the whole image, for integer, dyadic and other scales (the last
     two fall back to the whole image), a blob anywhere (edges included), scattered pixels,
-    and an empty image."""
+    and an empty image; a 0 / 1 image with gain 255 as the 0 / 255 one."""
     import cv2
 
     from mocap.energy.silhouette import _resize_area
@@ -117,6 +117,21 @@ def test_block_cropped_area_resize_is_cv2s_whole_image_resize(sizes):
         m[((yy - cy) / ry) ** 2 + ((xx - cx) / rx) ** 2 < 1] = 255
         if trial % 3 == 2:
             m[rng.random((H, W)) < 0.001] = 255
-        np.testing.assert_array_equal(_resize_area(m, w, h),
-                                      cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA))
+        want = cv2.resize(m, (w, h), interpolation=cv2.INTER_AREA)
+        np.testing.assert_array_equal(_resize_area(m, w, h), want)
+        # the 0 / 1 mask with the gain 255 applied to the crop only: the same image
+        np.testing.assert_array_equal(_resize_area(m // 255, w, h, gain=255), want)
     np.testing.assert_array_equal(_resize_area(np.zeros((H, W), np.uint8), w, h), 0)
+
+
+def test_target_boxes_are_the_observed_pixels_extent_grown_by_the_margin():
+    """boxes: the min / max + 1 of the set pixels' coordinates, grown by the margin and clipped
+    to the image; area: the set pixels' counts."""
+    masks = np.zeros((3, 40, 50), bool)
+    masks[0, 5:9, 7:30] = True
+    masks[0, 20, 3] = True
+    masks[1, 0, 49] = True
+    masks[2, 30:40, 0:2] = True
+    t = silhouette_target(masks, 1.0, margin=4)
+    np.testing.assert_array_equal(t.boxes, [[0, 1, 34, 25], [45, 0, 50, 5], [0, 26, 6, 40]])
+    np.testing.assert_array_equal(t.area, [4 * 23 + 1, 1, 20])
