@@ -227,11 +227,15 @@ def left_right_fixes(rig, keypoints: np.ndarray, min_confidence: float = 0.5,
     view with a person, the body keypoints are triangulated from the other views and
     reprojected into it; when its mirrored labels fit that reprojection better than ``ratio``
     x its own (median pixel error), the view is mirrored. One view at a time, the clearest
-    first, until none qualifies. The views then agree, but agreeing views can all be mirrored
-    (where as many views are swapped as not, e.g. 2 of 4, the step above mirrors either half):
-    the person triangulated from them all is checked against a real body's handedness
-    (:func:`handedness`), and where every cue found is below ``-min_handedness`` every view
-    is mirrored. Returns the views whose labels changed (ascending)."""
+    first, until none qualifies. The views then agree, but agreement cannot tell which side was
+    right where as many views were swapped as not (2 of 4: the step above mirrors either half).
+    So where it mirrored half the views with a person or more (3+ views), the person
+    triangulated from them all is checked against a real body's handedness
+    (:func:`handedness`), and where every cue found is below ``-min_handedness`` every view is
+    mirrored (the other half was the swapped one). Where it mirrored fewer, the views that
+    agreed are kept as given: a consensus is not overruled by the 3D cue (one bad view, e.g.
+    two people's limbs mixed, can turn the triangulated body over). Returns the views whose
+    labels changed (ascending)."""
     C = len(keypoints)
     fixed: list[int] = []
     for _ in range(C):
@@ -257,16 +261,26 @@ def left_right_fixes(rig, keypoints: np.ndarray, min_confidence: float = 0.5,
             break
         keypoints[best] = keypoints[best][MIRROR]
         fixed.append(best)
-    seen = keypoints[:, :, 2] >= min_confidence                                    # (C, 33)
+    fixed = [c for c in set(fixed) if fixed.count(c) % 2]          # (a view mirrored twice: as given)
+    people = [c for c in range(C) if keypoints[c, :, 2].any()]
+    if len(people) >= 3 and 2 * len(fixed) >= len(people) and _swapped_in_3d(
+            rig, keypoints, people, min_confidence, min_handedness):
+        keypoints[people] = keypoints[people][:, MIRROR]
+        fixed = sorted(set(fixed) ^ set(people))
+    return sorted(fixed)
+
+
+def _swapped_in_3d(rig, keypoints: np.ndarray, views: list[int], min_confidence: float,
+                   min_handedness: float) -> bool:
+    """Whether the person triangulated from ``views`` of ``keypoints`` (C, 33, 3) has every
+    :func:`handedness` cue found (at least one) below ``-min_handedness``."""
+    seen = np.zeros(keypoints.shape[:2], bool)
+    seen[views] = keypoints[views, :, 2] >= min_confidence
     X = triangulate(rig, keypoints[:, :, :2], valid=seen)
     X[seen.sum(0) < 2] = np.nan
     cues = handedness(X)
     cues = cues[np.isfinite(cues)]
-    if len(cues) and np.all(cues < -min_handedness):
-        people = [c for c in range(C) if keypoints[c, :, 2].any()]
-        keypoints[people] = keypoints[people][:, MIRROR]
-        fixed += people
-    return sorted(c for c in set(fixed) if fixed.count(c) % 2)
+    return bool(len(cues)) and bool(np.all(cues < -min_handedness))
 
 
 def fix_left_right(plan: DetectPlan, progress: bool = True) -> dict[str, list[int]]:
