@@ -194,8 +194,32 @@ for _a, _b in [(1, 4), (2, 5), (3, 6), (7, 8), (9, 10)] + [(k, k + 1) for k in r
 BODY = np.arange(11, NUM_KEYPOINTS)
 
 
+#: BlazePose indices of the handedness cues: left/right shoulders and hips; the nose; heels and toes
+_SHOULDERS, _HIPS, _NOSE, _HEELS, _TOES = (11, 12), (23, 24), 0, (29, 30), (31, 32)
+
+
+def handedness(X: np.ndarray) -> np.ndarray:
+    """(..., 33, 3) triangulated BlazePose keypoints (NaN where unknown) -> (..., 2): for a
+    forward direction from the nose (ahead of the shoulders' midpoint) and one from the feet
+    (toes ahead of heels, both feet), the cosine between the body's left-to-right direction
+    (right minus left, shoulders and hips averaged) and the right that forward and up (hips'
+    to shoulders' midpoint) make (forward x up). +1: labels as on a real body; -1: left and
+    right swapped in 3D, as when most views are mirrored alike; NaN where a cue is missing.
+    Every forward and up here is unchanged by swapping the labels; only left-to-right flips."""
+    L, R = [np.asarray(i) for i in zip(_SHOULDERS, _HIPS, strict=True)]
+    across = (X[..., R, :] - X[..., L, :]).mean(-2)                                  # (..., 3)
+    shoulders = X[..., _SHOULDERS, :].mean(-2)
+    up = shoulders - X[..., _HIPS, :].mean(-2)
+    forward = np.stack([X[..., _NOSE, :] - shoulders,
+                        (X[..., _TOES, :] - X[..., _HEELS, :]).mean(-2)], -2)     # (..., 2, 3)
+    right = np.cross(forward, up[..., None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (np.einsum("...k,...ik->...i", across, right)
+                / (np.linalg.norm(right, axis=-1) * np.linalg.norm(across, axis=-1)[..., None]))
+
+
 def left_right_fixes(rig, keypoints: np.ndarray, min_confidence: float = 0.5,
-                     ratio: float = 0.5) -> list[int]:
+                     ratio: float = 0.5, min_handedness: float = 0.3) -> list[int]:
     """Views of one frame whose left/right labels are swapped (fixed in place).
 
     keypoints: (C, 33, 3) per view (x, y, confidence; all 0 where no person). BlazePose tells
@@ -203,7 +227,15 @@ def left_right_fixes(rig, keypoints: np.ndarray, min_confidence: float = 0.5,
     view with a person, the body keypoints are triangulated from the other views and
     reprojected into it; when its mirrored labels fit that reprojection better than ``ratio``
     x its own (median pixel error), the view is mirrored. One view at a time, the clearest
-    first, until none qualifies. Returns the mirrored views."""
+    first, until none qualifies. The views then agree, but agreement cannot tell which side was
+    right where as many views were swapped as not (2 of 4: the step above mirrors either half).
+    So where it mirrored half the views with a person or more (3+ views), the person
+    triangulated from them all is checked against a real body's handedness
+    (:func:`handedness`), and where every cue found is below ``-min_handedness`` every view is
+    mirrored (the other half was the swapped one). Where it mirrored fewer, the views that
+    agreed are kept as given: a consensus is not overruled by the 3D cue (one bad view, e.g.
+    two people's limbs mixed, can turn the triangulated body over). Returns the views whose
+    labels changed (ascending)."""
     C = len(keypoints)
     fixed: list[int] = []
     for _ in range(C):
@@ -229,7 +261,26 @@ def left_right_fixes(rig, keypoints: np.ndarray, min_confidence: float = 0.5,
             break
         keypoints[best] = keypoints[best][MIRROR]
         fixed.append(best)
-    return fixed
+    fixed = [c for c in set(fixed) if fixed.count(c) % 2]          # (a view mirrored twice: as given)
+    people = [c for c in range(C) if keypoints[c, :, 2].any()]
+    if len(people) >= 3 and 2 * len(fixed) >= len(people) and _swapped_in_3d(
+            rig, keypoints, people, min_confidence, min_handedness):
+        keypoints[people] = keypoints[people][:, MIRROR]
+        fixed = sorted(set(fixed) ^ set(people))
+    return sorted(fixed)
+
+
+def _swapped_in_3d(rig, keypoints: np.ndarray, views: list[int], min_confidence: float,
+                   min_handedness: float) -> bool:
+    """Whether the person triangulated from ``views`` of ``keypoints`` (C, 33, 3) has every
+    :func:`handedness` cue found (at least one) below ``-min_handedness``."""
+    seen = np.zeros(keypoints.shape[:2], bool)
+    seen[views] = keypoints[views, :, 2] >= min_confidence
+    X = triangulate(rig, keypoints[:, :, :2], valid=seen)
+    X[seen.sum(0) < 2] = np.nan
+    cues = handedness(X)
+    cues = cues[np.isfinite(cues)]
+    return bool(len(cues)) and bool(np.all(cues < -min_handedness))
 
 
 def fix_left_right(plan: DetectPlan, progress: bool = True) -> dict[str, list[int]]:
@@ -449,4 +500,4 @@ def read_masks(folder: str | Path, names: Seq[str], frames: Seq[int], size: tupl
 
 
 __all__ = ["DetectPlan", "plan_detection", "run_detection", "read_masks", "summarise", "NUM_KEYPOINTS",
-           "fix_left_right_people"]
+           "fix_left_right_people", "handedness"]

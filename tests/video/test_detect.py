@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mocap.body.skeletons import LAYOUTS
-from mocap.cameras import project, rig_from_config, save_calibration
+from mocap.cameras import project, rig_from_config, save_calibration, triangulate
 from mocap.data.openpose import load_openpose_sequence
 from mocap.video.detect import plan_detection, read_masks
 from mocap.video.detector import detector_available
@@ -191,13 +191,14 @@ def test_rerun_skips_done_views_refuses_other_settings_and_force_redoes(syntheti
 # --- the multi-view left/right check (no detector needed) -------------------------------------
 
 def stick_figure_keypoints(rig, noise_px: float = 2.0, seed: int = 0) -> np.ndarray:
-    """(C, 33, 3) BlazePose-layout keypoints of a standing figure (Z up) seen by ``rig``."""
-    pts = {"l_shoulder": (0.2, 0, 1.4), "r_shoulder": (-0.2, 0, 1.4), "l_elbow": (0.3, 0.05, 1.1),
-           "r_elbow": (-0.3, 0.05, 1.1), "l_wrist": (0.33, 0.15, 0.85), "r_wrist": (-0.33, 0.1, 0.85),
-           "l_hip": (0.1, 0, 0.9), "r_hip": (-0.1, 0, 0.9), "l_knee": (0.12, 0.05, 0.5),
-           "r_knee": (-0.1, 0.08, 0.5), "l_ankle": (0.12, 0, 0.1), "r_ankle": (-0.1, 0.02, 0.1),
-           "l_heel": (0.12, -0.05, 0.03), "r_heel": (-0.1, -0.04, 0.03), "l_toe": (0.13, 0.15, 0.0),
-           "r_toe": (-0.11, 0.16, 0.0)}
+    """(C, 33, 3) BlazePose-layout keypoints of a standing figure (Z up) seen by ``rig``: a real
+    body's handedness, facing +Y (nose and toes ahead), so its left side is at -X."""
+    pts = {"nose": (0, 0.1, 1.6), "l_shoulder": (-0.2, 0, 1.4), "r_shoulder": (0.2, 0, 1.4),
+           "l_elbow": (-0.3, 0.05, 1.1), "r_elbow": (0.3, 0.05, 1.1), "l_wrist": (-0.33, 0.15, 0.85),
+           "r_wrist": (0.33, 0.1, 0.85), "l_hip": (-0.1, 0, 0.9), "r_hip": (0.1, 0, 0.9),
+           "l_knee": (-0.12, 0.05, 0.5), "r_knee": (0.1, 0.08, 0.5), "l_ankle": (-0.12, 0, 0.1),
+           "r_ankle": (0.1, 0.02, 0.1), "l_heel": (-0.12, -0.05, 0.03), "r_heel": (0.1, -0.04, 0.03),
+           "l_toe": (-0.13, 0.15, 0.0), "r_toe": (0.11, 0.16, 0.0)}
     names = LAYOUTS["MEDIAPIPE_33"]
     idx = [i for i, n in enumerate(names) if n in pts]
     px = project(rig, np.array([pts[names[i]] for i in idx], float))          # (C, N, 2)
@@ -221,6 +222,50 @@ def test_left_right_check_mirrors_the_one_swapped_view_back_and_leaves_the_other
     nobody[1] = 0                                                   # a view without a person
     nobody[3] = kp[3][MIRROR]
     assert left_right_fixes(rig, nobody) == [3] and not nobody[1].any()
+
+
+def test_handedness_is_plus_one_for_a_real_body_and_minus_one_mirrored():
+    from mocap.video.detect import MIRROR, handedness
+
+    rig = rig_from_config("ring4_small")
+    kp = stick_figure_keypoints(rig, noise_px=0)
+    X = triangulate(rig, kp[:, :, :2], valid=kp[:, :, 2] > 0)
+    assert np.allclose(handedness(X), 1, atol=0.05)                     # nose and feet: both cues
+    assert np.allclose(handedness(X[MIRROR]), -1, atol=0.05)            # labels swapped in 3D
+    turned = X @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1.0]])          # turned 90 degrees: the same body
+    assert np.allclose(handedness(turned), 1, atol=0.05)
+    no_feet = X.copy()
+    no_feet[[29, 30, 31, 32]] = np.nan
+    cues = handedness(no_feet)
+    assert np.isnan(cues[1]) and abs(cues[0] - 1) < 0.05
+
+
+@pytest.mark.parametrize("swapped", [(0, 1), (1, 2), (2, 3), (0, 3)])
+def test_left_right_check_mirrors_back_the_swapped_half_of_the_views(swapped):
+    """2 of 4 views swapped: agreement between views cannot tell which half is right (the
+    one-view-at-a-time step mirrors either); the body's handedness puts back the swapped half."""
+    from mocap.video.detect import MIRROR, left_right_fixes
+
+    rig = rig_from_config("ring4_small")
+    for seed in range(3):
+        kp = stick_figure_keypoints(rig, seed=seed)
+        given = kp.copy()
+        given[list(swapped)] = kp[list(swapped)][:, MIRROR]
+        assert left_right_fixes(rig, given) == list(swapped)
+        assert np.array_equal(given, kp)
+
+
+def test_left_right_check_keeps_views_that_agree_against_the_handedness():
+    """3 of 4 views swapped alike agree: the fourth is mirrored to them and the handedness
+    does not overrule them (on real video one bad view can turn the triangulated body over)."""
+    from mocap.video.detect import MIRROR, left_right_fixes
+
+    rig = rig_from_config("ring4_small")
+    kp = stick_figure_keypoints(rig)
+    given = kp.copy()
+    given[:3] = kp[:3][:, MIRROR]
+    assert left_right_fixes(rig, given) == [3]
+    assert np.array_equal(given, kp[:, MIRROR])
 
 
 # --- bad input, refused before work (no detector needed) ---------------------------------------
