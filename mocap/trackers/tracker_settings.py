@@ -77,12 +77,23 @@ class InitSettings:
     energy_mesh: int | None = ENERGY_MESH_FACES  # pose searches' E_S mesh (triangles); None: full mesh
     prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
                                   # E_S) behind the best after a round; None: never
+    limb_hypotheses: int = 0      # per kept hypothesis, each limb's angles drawn anew this many
+                                  # times (the hybrid: from its motion library) before the rounds;
+                                  # the limb_keep best (search E_S) searched over the limb's DOFs
+                                  # (limb_particles x limb_layers), kept where the fine E_S falls; 0: off
+    limb_keep: int = 3
+    limb_particles: int = 30
+    limb_layers: int = 6
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
               "null (the full mesh) or >= 4 triangles")
         check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
               "null (never) or >= 0 (relative)")
+        check(self, "limb_hypotheses", self.limb_hypotheses >= 0, "an integer >= 0 (0: off)")
+        for name in ("limb_keep", "limb_layers"):
+            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
+        check(self, "limb_particles", self.limb_particles >= 2, "an integer >= 2")
 
 
 @dataclass(frozen=True)
