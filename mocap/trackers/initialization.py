@@ -10,6 +10,10 @@ No ground truth is used. Starting from the mean body:
    result also with its limbs swapped left/right (:func:`mirror_map`); all are scored by E_S
    at ``select_resolution`` (finer than the search's, where feet, hands and the face decide)
    and the ``keep`` best go on;
+3b. with ``limb_hypotheses`` > 0, each kept hypothesis's limbs searched anew (:func:`scan_limbs`:
+   a limb's angles drawn from a motion library, or uniformly, the best few searched over the
+   limb, kept where the fine E_S falls): a forearm folded the wrong way or held in front of the
+   torso lies far from the search's start in angle, not in E_S;
 4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (annealed search,
    local optimisation) and the shape coefficients (the first ``shape_components``, annealed
    search on E_S with the joint angles held fixed and, with ``shape_translate``, the body's
