@@ -84,7 +84,7 @@ class SilhouetteStart:
             if line is not None:
                 line.close()
         info = {"seconds": time.perf_counter() - t,
-                **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")},
+                **{k: v for k, v in diag.items() if k in ("hypotheses", "margin", "limbs_changed_at_end")},
                 "initializer_version": initialization.INITIALIZER_VERSION}
         return {0: initial_estimate_of(chi, alpha)}, info
 

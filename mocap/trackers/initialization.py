@@ -10,10 +10,12 @@ No ground truth is used. Starting from the mean body:
    result also with its limbs swapped left/right (:func:`mirror_map`); all are scored by E_S
    at ``select_resolution`` (finer than the search's, where feet, hands and the face decide)
    and the ``keep`` best go on;
-3b. with ``limb_hypotheses`` > 0, each kept hypothesis's limbs searched anew (:func:`scan_limbs`:
-   a limb's angles drawn from a motion library, or uniformly, the best few searched over the
-   limb, kept where the fine E_S falls): a forearm folded the wrong way or held in front of the
-   torso lies far from the search's start in angle, not in E_S;
+3b. with ``limb_hypotheses`` > 0 and ``limb_stage`` "start", each kept hypothesis's limbs searched
+   anew (:func:`scan_limbs`: a limb's angles drawn from a motion library, or uniformly, the best
+   few searched over the limb, kept where the fine E_S falls): a forearm folded the wrong way or
+   held in front of the torso lies far from the search's start in angle, not in E_S; with
+   ``limb_stage`` "end", the winner's limbs after step 4 instead (the steps before draw the
+   same numbers as without, so the start's fine E_S can only fall);
 4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (annealed search,
    local optimisation) and the shape coefficients (the first ``shape_components``, annealed
    search on E_S with the joint angles held fixed and, with ``shape_translate``, the body's
@@ -325,7 +327,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     move_limits = np.vstack([shape_limits, np.tile([-move, move], (3, 1))])
     shape_apf = APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
                             diffusion=0.7, shrink=0.9)
-    if settings.limb_hypotheses > 0:          # 3b. each kept hypothesis's limbs searched anew
+    if settings.limb_hypotheses > 0 and settings.limb_stage == "start":   # 3b. limbs searched anew
         for hyp in kept:
             hyp["chi"] = limb_scan(alpha, hyp["chi"], hyp)
     state = [[hyp, hyp["chi"], alpha.copy()] for hyp in kept]     # hypothesis, pose, shape
@@ -375,9 +377,13 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             report("refine", 1.0)
         else:                                  # dropped: its energy when it was dropped
             hyp["final_energy"] = hyp["round_energy"][-1]
-    report.finish()
     finals.sort(key=lambda t: t[0])
     _, chi, alpha = finals[0]
+    if settings.limb_hypotheses > 0 and settings.limb_stage == "end":     # 5. the winner's limbs anew
+        winner = {}
+        chi = limb_scan(alpha, chi, winner)
+        diag["limbs_changed_at_end"] = winner["limbs_changed"]
+    report.finish()
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
     # the winner's lead: over the runner-up at the end, or over a dropped one when it was dropped
     leads = [(e - finals[0][0]) / max(finals[0][0], 1e-12) for e, _, _ in finals[1:]]

@@ -81,6 +81,8 @@ class InitSettings:
                                   # times (the hybrid: from its motion library) before the rounds;
                                   # the limb_keep best (search E_S) searched over the limb's DOFs
                                   # (limb_particles x limb_layers), kept where the fine E_S falls; 0: off
+    limb_stage: str = "start"     # "start": the kept hypotheses' limbs, before the rounds; "end":
+                                  # the winner's, after them
     limb_keep: int = 3
     limb_particles: int = 30
     limb_layers: int = 6
@@ -94,6 +96,7 @@ class InitSettings:
         for name in ("limb_keep", "limb_layers"):
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")
         check(self, "limb_particles", self.limb_particles >= 2, "an integer >= 2")
+        check(self, "limb_stage", self.limb_stage in ("start", "end"), "'start' or 'end'")
 
 
 @dataclass(frozen=True)
