@@ -344,21 +344,34 @@ def _hybrid_local() -> LocalStepSettings:
                              shape=ShapeRefinement(every=10))
 
 
+#: the silhouette-only hybrid's start: the self-initialisation's winner with each limb searched anew
+#: (200 draws from the motion library, InitSettings.limb_stage "end"), chosen on the real-motion dev
+#: split (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: the start")
+HYBRID_LIMB_HYPOTHESES = 200
+
+
+def _hybrid_init() -> InitSettings:
+    """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew."""
+    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES, limb_stage="end")
+
+
 @dataclass(frozen=True)
 class HybridSettings:
     """``hybrid``, the full system of Zhang et al. 2013: the local step every frame
     (``local``), the APF over the misaligned limbs (``apf``), the 2D keypoint cue
     (``keypoints``; its ``weight`` 0: off, the paper's silhouette-only system; ``hybrid_kp``:
-    on, :mod:`mocap.trackers.keypoint_cue`), the self-initialisation's settings and
-    ``keep_particles``. ``start_search``: without the keypoint cue, search every limb chain of
-    the self-initialisation's pose in turn with the limb-repair APF, each kept where the frame's
-    E_S falls, then a local step (kept where it falls too): the start's limbs get the search a
-    misaligned limb gets while tracking, which the check after the start never asks for
+    on, :mod:`mocap.trackers.keypoint_cue`), the self-initialisation's settings (the silhouette
+    start with the winner's limbs searched anew; ``hybrid_kp`` keeps the plain start, its keypoint
+    search refines it) and ``keep_particles``. ``start_search``: without the keypoint cue,
+    search every limb chain of the self-initialisation's pose in turn with the limb-repair APF,
+    each kept where the frame's E_S falls, then a local step (kept where it falls too): the
+    start's limbs get the search a misaligned limb gets while tracking, which the check after
+    the start never asks for
     (:meth:`~mocap.trackers.hybrid_tracker.HybridTracker.refine_initial`)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = HybridSearchSettings()
     keypoints: KeypointSettings = KeypointSettings()
-    initialization: InitSettings = InitSettings()
+    initialization: InitSettings = field(default_factory=_hybrid_init)
     keep_particles: bool = False
     start_search: bool = False
