@@ -81,8 +81,8 @@ class InitSettings:
                                   # times (the hybrid: from its motion library) before the rounds;
                                   # the limb_keep best (search E_S) searched over the limb's DOFs
                                   # (limb_particles x limb_layers), kept where the fine E_S falls; 0: off
-    limb_stage: str = "start"     # "start": the kept hypotheses' limbs, before the rounds; "end":
-                                  # the winner's, after them
+    limb_stage: str = "end"       # "end": the winner's limbs, after the rounds (chosen on dev);
+                                  # "start": the kept hypotheses', before the rounds
     limb_keep: int = 3
     limb_particles: int = 30
     limb_layers: int = 6
@@ -352,7 +352,7 @@ HYBRID_LIMB_HYPOTHESES = 200
 
 def _hybrid_init() -> InitSettings:
     """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew."""
-    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES, limb_stage="end")
+    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES)
 
 
 @dataclass(frozen=True)

@@ -36,13 +36,20 @@ def test_limb_candidates_take_the_library_angles_where_it_has_them(body):
     assert np.ptp(out[:, cols[1:]], axis=0).min() > 0               # NaN: drawn uniformly
 
 
-def test_off_by_default():
+def test_off_by_default_on_for_the_silhouette_only_hybrid():
+    from mocap.trackers.presets import preset_settings
+
     assert InitSettings().limb_hypotheses == 0
+    assert preset_settings("hybrid").initialization.limb_hypotheses > 0
+    assert preset_settings("hybrid").initialization.limb_stage == "end"
+    assert preset_settings("hybrid_kp").initialization == InitSettings()      # its keypoints refine it
 
 
 def test_bad_limb_settings_are_refused_naming_the_field():
     with pytest.raises(ValueError, match="limb_keep"):
         InitSettings(limb_keep=0)
+    with pytest.raises(ValueError, match="limb_stage"):
+        InitSettings(limb_stage="middle")
 
 
 def raised_arm(body, chi):
