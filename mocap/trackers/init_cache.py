@@ -61,28 +61,30 @@ class ProgressLine:
 
 class SilhouetteStart:
     """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`) of
-    ``body`` seen by ``rig``, with ``settings`` (:class:`InitSettings`) drawing from ``rng``.
+    ``body`` seen by ``rig``, with ``settings`` (:class:`InitSettings`) drawing from ``rng``;
+    ``library``: poses (T, D) its limb hypotheses draw from (the hybrid's motion library).
     info: seconds, the hypotheses and margin, ``initializer_version``.
     progress: called as ``progress(stage, fraction)`` while it runs (fractions non-decreasing,
     ending at ("done", 1.0)); None: a :class:`ProgressLine` on stderr. Settable after
     construction (``tracker.initializer(cache).start.progress = ...``)."""
 
     def __init__(self, body, rig, settings, rng: np.random.Generator,
-                 progress: Callable[[str, float], None] | None = None):
+                 progress: Callable[[str, float], None] | None = None, library: np.ndarray | None = None):
         self.body, self.rig, self.settings, self.rng = body, rig, settings, rng
-        self.progress = progress
+        self.progress, self.library = progress, library
 
     def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
         t = time.perf_counter()
         line = ProgressLine("silhouette start-up") if self.progress is None else None
         try:
             chi, alpha, diag = initialization.initialize_from_silhouettes(
-                self.body, self.rig, frame.masks, self.rng, self.settings, progress=self.progress or line)
+                self.body, self.rig, frame.masks, self.rng, self.settings, progress=self.progress or line,
+                library=self.library)
         finally:
             if line is not None:
                 line.close()
         info = {"seconds": time.perf_counter() - t,
-                **{k: v for k, v in diag.items() if k in ("hypotheses", "margin")},
+                **{k: v for k, v in diag.items() if k in ("hypotheses", "margin", "limbs_changed_at_end")},
                 "initializer_version": initialization.INITIALIZER_VERSION}
         return {0: initial_estimate_of(chi, alpha)}, info
 
@@ -96,6 +98,8 @@ class SilhouetteStart:
         h.update(json.dumps(rig_to_dict(self.rig), sort_keys=True, default=str).encode())
         h.update(repr(self.settings).encode())
         h.update(f"initializer-v{initialization.INITIALIZER_VERSION}".encode())
+        if getattr(self.settings, "limb_hypotheses", 0) and self.library is not None:
+            h.update(np.ascontiguousarray(self.library, dtype=np.float64).tobytes())
         h.update(json.dumps(self.rng.bit_generator.state, sort_keys=True, default=str).encode())
         return h.hexdigest()[:20]
 
@@ -205,7 +209,8 @@ class SilhouetteInitialisation:
     def initializer(self, cache=None):
         """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
         ``cache`` (None: not cached)."""
-        return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng), cache)
+        return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng,
+                                      library=getattr(self, "library", None)), cache)
 
     def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
         """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""

@@ -10,6 +10,12 @@ No ground truth is used. Starting from the mean body:
    result also with its limbs swapped left/right (:func:`mirror_map`); all are scored by E_S
    at ``select_resolution`` (finer than the search's, where feet, hands and the face decide)
    and the ``keep`` best go on;
+3b. with ``limb_hypotheses`` > 0 and ``limb_stage`` "start", each kept hypothesis's limbs searched
+   anew (:func:`scan_limbs`: a limb's angles drawn from a motion library, or uniformly, the best
+   few searched over the limb, kept where the fine E_S falls): a forearm folded the wrong way or
+   held in front of the torso lies far from the search's start in angle, not in E_S; with
+   ``limb_stage`` "end", the winner's limbs after step 4 instead (the steps before draw the
+   same numbers as without, so the start's fine E_S can only fall);
 4. ``rounds`` of alternating refinement of each kept hypothesis: the pose (annealed search,
    local optimisation) and the shape coefficients (the first ``shape_components``, annealed
    search on E_S with the joint angles held fixed and, with ``shape_translate``, the body's
@@ -116,6 +122,53 @@ def dof_partitions(body: BodyModel) -> list[np.ndarray]:
     return [m for m in masks.values() if m.any()]
 
 
+def limb_candidates(chi: np.ndarray, free: np.ndarray, count: int, limits: np.ndarray,
+                    rng: np.random.Generator, library: np.ndarray | None = None) -> np.ndarray:
+    """``count`` poses (count, D): ``chi`` (D,) with the ``free`` DOFs (D,) bool drawn anew, from
+    rows of ``library`` (T, D; NaN: no value, drawn uniformly instead) where given, else
+    uniformly within ``limits`` (D, 2); the other DOFs as in chi."""
+    out = np.repeat(np.asarray(chi, np.float64)[None], count, axis=0)
+    cols = np.flatnonzero(free)
+    uniform = rng.uniform(limits[cols, 0], limits[cols, 1], (count, len(cols)))
+    if library is not None and len(library):
+        rows = library[rng.integers(len(library), size=count)][:, cols]
+        uniform = np.where(np.isfinite(rows), rows, uniform)
+    out[:, cols] = np.clip(uniform, limits[cols, 0], limits[cols, 1])
+    return out
+
+
+def scan_limbs(chi: np.ndarray, energy, fine_energy, limbs: list[np.ndarray], limits: np.ndarray,
+               spread: np.ndarray, settings: InitSettings, rng: np.random.Generator,
+               library: np.ndarray | None = None, root_point: np.ndarray | None = None
+               ) -> tuple[np.ndarray, list[int]]:
+    """Each limb of the pose chi (D,) searched anew, one after the other: its angles (the DOF mask
+    ``limbs[k]`` (D,)) drawn ``settings.limb_hypotheses`` times (:func:`limb_candidates`), scored
+    by ``energy`` ((P, D) -> (P,), the search's E_S); the ``settings.limb_keep`` best each
+    searched over the limb's DOFs (an APF of ``limb_particles`` x ``limb_layers`` from first-layer
+    spread ``spread`` (D,)); the lowest by ``fine_energy`` replaces the limb where it lowers the
+    fine energy of the pose so far. Silhouettes of an arm in front of the torso, or a forearm
+    folded the other way, lie far from the start in angle but near it in E_S: an annealed search
+    from the start does not reach them, a draw of the whole limb does. Returns (pose, indices k
+    of the limbs changed)."""
+    apf = APFSettings(particles=settings.limb_particles, layers=settings.limb_layers, diffusion=0.7,
+                      shrink=0.9)
+    chi = np.asarray(chi, np.float64)
+    best = float(fine_energy(chi[None])[0])
+    changed = []
+    for k, free in enumerate(limbs):
+        cands = limb_candidates(chi, free, settings.limb_hypotheses, limits, rng, library)
+        e = energy(cands)
+        tried = []
+        for i in np.argsort(e)[:settings.limb_keep]:
+            found, _ = run_apf(energy, cands[i], spread, limits, apf, rng, free=free, root_point=root_point)
+            tried.append((float(fine_energy(found[None])[0]), found))
+        e_best, found = min(tried, key=lambda t: t[0])
+        if e_best < best:
+            best, chi = e_best, found
+            changed.append(k)
+    return chi, changed
+
+
 def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.ndarray) -> np.ndarray:
     """The pose with its left and right joint angles exchanged (root unchanged), in the limits."""
     out = np.asarray(chi, np.float64).copy()
@@ -147,9 +200,13 @@ class _Progress:
 
 def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rng: np.random.Generator,
                                 settings: InitSettings = InitSettings(),  # noqa: B008 (frozen)
-                                progress: Callable[[str, float], None] | None = None
+                                progress: Callable[[str, float], None] | None = None,
+                                library: np.ndarray | None = None
                                 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """(chi (D,), alpha (K,), diagnostics) estimated from one frame's masks (C, H, W).
+
+    library: poses (T, D) (NaN: no value) the limb hypotheses (``limb_hypotheses`` > 0) draw a
+    limb's angles from; None: uniformly within the joint limits.
 
     progress: called as ``progress(stage, fraction)`` while it runs (stages "heading",
     "hypotheses", "refine", "done"; fractions non-decreasing, the last call
@@ -209,6 +266,14 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
 
     groups = dof_partitions(body) if settings.partitioned else []
 
+    def limb_scan(a: np.ndarray, chi: np.ndarray, hyp: dict) -> np.ndarray:
+        sil = energy_for(a, scale, True)
+        chi, hyp["limbs_changed"] = scan_limbs(
+            chi, lambda x: sil(x, target), lambda x: energy_for(a, fine_scale, False)(x, fine_target),
+            dof_partitions(body)[1:], body.limits, std * 0.5, settings, rng, library,
+            root_point=sil.shaped.rest_joints[0])
+        return chi
+
     def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
         sil = energy_for(a, scale, True)          # the energy mesh
 
@@ -262,6 +327,9 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     move_limits = np.vstack([shape_limits, np.tile([-move, move], (3, 1))])
     shape_apf = APFSettings(particles=settings.shape_particles, layers=settings.shape_layers,
                             diffusion=0.7, shrink=0.9)
+    if settings.limb_hypotheses > 0 and settings.limb_stage == "start":   # 3b. limbs searched anew
+        for hyp in kept:
+            hyp["chi"] = limb_scan(alpha, hyp["chi"], hyp)
     state = [[hyp, hyp["chi"], alpha.copy()] for hyp in kept]     # hypothesis, pose, shape
     alive = list(range(len(state)))
     for r in range(settings.rounds):          # round by round, so that losers can be dropped
@@ -309,9 +377,13 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             report("refine", 1.0)
         else:                                  # dropped: its energy when it was dropped
             hyp["final_energy"] = hyp["round_energy"][-1]
-    report.finish()
     finals.sort(key=lambda t: t[0])
     _, chi, alpha = finals[0]
+    if settings.limb_hypotheses > 0 and settings.limb_stage == "end":     # 5. the winner's limbs anew
+        winner = {}
+        chi = limb_scan(alpha, chi, winner)
+        diag["limbs_changed_at_end"] = winner["limbs_changed"]
+    report.finish()
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
     # the winner's lead: over the runner-up at the end, or over a dropped one when it was dropped
     leads = [(e - finals[0][0]) / max(finals[0][0], 1e-12) for e, _, _ in finals[1:]]

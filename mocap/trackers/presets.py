@@ -16,7 +16,7 @@ from typing import Any
 
 from mocap.settings import with_overrides
 from mocap.trackers.markers.settings import MarkerPeopleSettings, MarkerSettings
-from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, LocalSettings
+from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, InitSettings, LocalSettings
 
 #: each tracker config's settings dataclass, whose defaults are the config's defaults
 SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSettings,
@@ -43,9 +43,11 @@ KEYPOINT_SHAPE_STD = 1.5
 #: the frames whose triangulated keypoints' median bone lengths the shape is fitted to again
 #: (issue 34, chosen on the same dev split among 1 and 15: docs/results/surface.md, "accuracy push")
 KEYPOINT_SHAPE_FRAMES = 15
-_HYBRID_KP = replace(HybridSettings(), keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
-                                                          shape_std=KEYPOINT_SHAPE_STD,
-                                                          shape_frames=KEYPOINT_SHAPE_FRAMES))
+#: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
+#: the silhouette-only hybrid's start were chosen without keypoints)
+_HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
+                     keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
+                                       shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES))
 
 #: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
 #: (docs/results/real_motion.md): its narrow sigma makes -log p steep

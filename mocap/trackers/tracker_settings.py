@@ -77,12 +77,26 @@ class InitSettings:
     energy_mesh: int | None = ENERGY_MESH_FACES  # pose searches' E_S mesh (triangles); None: full mesh
     prune_margin: float | None = PRUNE_MARGIN  # drop a kept hypothesis this far (relative fine
                                   # E_S) behind the best after a round; None: never
+    limb_hypotheses: int = 0      # per kept hypothesis, each limb's angles drawn anew this many
+                                  # times (the hybrid: from its motion library) before the rounds;
+                                  # the limb_keep best (search E_S) searched over the limb's DOFs
+                                  # (limb_particles x limb_layers), kept where the fine E_S falls; 0: off
+    limb_stage: str = "end"       # "end": the winner's limbs, after the rounds (chosen on dev);
+                                  # "start": the kept hypotheses', before the rounds
+    limb_keep: int = 3
+    limb_particles: int = 30
+    limb_layers: int = 6
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
               "null (the full mesh) or >= 4 triangles")
         check(self, "prune_margin", self.prune_margin is None or self.prune_margin >= 0,
               "null (never) or >= 0 (relative)")
+        check(self, "limb_hypotheses", self.limb_hypotheses >= 0, "an integer >= 0 (0: off)")
+        for name in ("limb_keep", "limb_layers"):
+            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
+        check(self, "limb_particles", self.limb_particles >= 2, "an integer >= 2")
+        check(self, "limb_stage", self.limb_stage in ("start", "end"), "'start' or 'end'")
 
 
 @dataclass(frozen=True)
@@ -336,21 +350,34 @@ def _hybrid_local() -> LocalStepSettings:
                              shape=ShapeRefinement(every=10))
 
 
+#: the silhouette-only hybrid's start: the self-initialisation's winner with each limb searched anew
+#: (200 draws from the motion library, InitSettings.limb_stage "end"), chosen on the real-motion dev
+#: split (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: the start")
+HYBRID_LIMB_HYPOTHESES = 200
+
+
+def _hybrid_init() -> InitSettings:
+    """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew."""
+    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES)
+
+
 @dataclass(frozen=True)
 class HybridSettings:
     """``hybrid``, the full system of Zhang et al. 2013: the local step every frame
     (``local``), the APF over the misaligned limbs (``apf``), the 2D keypoint cue
     (``keypoints``; its ``weight`` 0: off, the paper's silhouette-only system; ``hybrid_kp``:
-    on, :mod:`mocap.trackers.keypoint_cue`), the self-initialisation's settings and
-    ``keep_particles``. ``start_search``: without the keypoint cue, search every limb chain of
-    the self-initialisation's pose in turn with the limb-repair APF, each kept where the frame's
-    E_S falls, then a local step (kept where it falls too): the start's limbs get the search a
-    misaligned limb gets while tracking, which the check after the start never asks for
+    on, :mod:`mocap.trackers.keypoint_cue`), the self-initialisation's settings (the silhouette
+    start with the winner's limbs searched anew; ``hybrid_kp`` keeps the plain start, its keypoint
+    search refines it) and ``keep_particles``. ``start_search``: without the keypoint cue,
+    search every limb chain of the self-initialisation's pose in turn with the limb-repair APF,
+    each kept where the frame's E_S falls, then a local step (kept where it falls too): the
+    start's limbs get the search a misaligned limb gets while tracking, which the check after
+    the start never asks for
     (:meth:`~mocap.trackers.hybrid_tracker.HybridTracker.refine_initial`)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = HybridSearchSettings()
     keypoints: KeypointSettings = KeypointSettings()
-    initialization: InitSettings = InitSettings()
+    initialization: InitSettings = field(default_factory=_hybrid_init)
     keep_particles: bool = False
     start_search: bool = False

@@ -38,7 +38,7 @@ class CountingStart(SilhouetteStart):
     def __call__(self, frame):
         import unittest.mock
 
-        def compute(body, rig, masks, rng, settings, progress=None):
+        def compute(body, rig, masks, rng, settings, progress=None, library=None):
             self.tracker.calls += 1
             return (rng.normal(size=body.num_dofs), np.zeros(body.num_shape),
                     {"margin": 0.5, "hypotheses": [{"energy": 1.0}], "other": 3})
@@ -122,7 +122,7 @@ def test_the_start_reports_its_progress_to_the_callback_or_a_progress_line(monke
     body, rig = load_body("paper22"), rig_from_config("ring4_small")
     frame = Frame(index=0, masks=np.ones((len(rig.names), 8, 8), bool), images=None, detections=None)
 
-    def compute(body, rig, masks, rng, settings, progress=None):
+    def compute(body, rig, masks, rng, settings, progress=None, library=None):
         for stage, f in (("heading", 0.0), ("refine", 0.5), ("done", 1.0)):
             progress(stage, f)
         return np.zeros(body.num_dofs), np.zeros(body.num_shape), {}
@@ -136,3 +136,20 @@ def test_the_start_reports_its_progress_to_the_callback_or_a_progress_line(monke
     SilhouetteStart(body, rig, None, np.random.default_rng(0))(frame)       # None: a line on stderr
     err = capsys.readouterr().err
     assert "silhouette start-up" in err and "100%" in err and "done" in err
+
+
+def test_the_limb_hypotheses_change_the_key_and_read_their_library_only_when_on():
+    from mocap.trackers.tracker_settings import InitSettings
+
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    frame = Frame(index=0, masks=np.ones((len(rig.names), 4, 4), bool), images=None, detections=None)
+    lib_a, lib_b = np.zeros((3, body.num_dofs)), np.ones((3, body.num_dofs))
+
+    def key(settings, library=None):
+        start = SilhouetteStart(body, rig, settings, np.random.default_rng(0), library=library)
+        return start.cache_key(frame)
+
+    off, on = InitSettings(), InitSettings(limb_hypotheses=200)
+    assert key(off, lib_a) == key(off, lib_b) == key(off)          # off: the old start's key
+    assert key(on, lib_a) != key(off, lib_a)                       # on: not the old start's result
+    assert key(on, lib_a) != key(on, lib_b)                        # another library, another start
