@@ -105,9 +105,12 @@ interrupt.GRACE_S = 0.5
 interrupt.set_command("mocap held")
 from mocap.run_folder.lock import run_lock
 with run_lock(sys.argv[1]):
-    print("held", flush=True)
+    held = False
     while True:
-        try:
+        try:        # "held" printed inside the try: the test's Ctrl-C cannot land outside it
+            if not held:
+                print("held", flush=True)
+                held = True
             time.sleep(0.01)
         except KeyboardInterrupt:
             pass
