@@ -197,6 +197,15 @@ if HAVE_NUMBA:
             ys[v] = w
         return bad
 
+    @njit(cache=True, inline="always")
+    def _crossing_buffers(cap):
+        """Work arrays for ``cap`` column crossings: rows, columns and weights in the two
+        counting sorts' orders (row1, col1, wt1, row2, col2, wt2) and the covered runs (spans,
+        (cap, 3))."""
+        return (np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty(cap, np.int32),
+                np.empty(cap, np.int32), np.empty(cap, np.int32), np.empty(cap, np.int32),
+                np.empty((cap, 3), np.int64))
+
     @njit(cache=True, parallel=True)
     def _fused_energy(X, cam, dist, has_dist, has_skew, faces, ea, eb, fwd, bwd, colsum, boxes,
                       valid, area, obs_r, obs_c, obs_start, obs_box, num_views, height, width,
@@ -228,13 +237,7 @@ if HAVE_NUMBA:
             pos = np.zeros(width + 1, np.int64)
             rpos = np.empty(height + 2, np.int64)
             cap = 4 * E
-            row1 = np.empty(cap, np.int32)
-            col1 = np.empty(cap, np.int32)
-            wt1 = np.empty(cap, np.int32)
-            row2 = np.empty(cap, np.int32)
-            col2 = np.empty(cap, np.int32)
-            wt2 = np.empty(cap, np.int32)
-            spans = np.empty((cap, 3), np.int64)
+            row1, col1, wt1, row2, col2, wt2, spans = _crossing_buffers(cap)
             xs = np.empty(V, X.dtype)
             ys = np.empty(V, X.dtype)
             vs = np.empty(V, np.bool_)
@@ -272,13 +275,7 @@ if HAVE_NUMBA:
                     total += step
                 if total > cap:
                     cap = 2 * total
-                    row1 = np.empty(cap, np.int32)
-                    col1 = np.empty(cap, np.int32)
-                    wt1 = np.empty(cap, np.int32)
-                    row2 = np.empty(cap, np.int32)
-                    col2 = np.empty(cap, np.int32)
-                    wt2 = np.empty(cap, np.int32)
-                    spans = np.empty((cap, 3), np.int64)
+                    row1, col1, wt1, row2, col2, wt2, spans = _crossing_buffers(cap)
                 for r in range(height + 2):
                     rpos[r] = 0
                 q = 0
