@@ -43,6 +43,15 @@ def active_dofs(moves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 if HAVE_NUMBA:
 
+    @njit(cache=True, inline="always")
+    def _line_error(x0, x1, x2, d0, d1, d2, m, i, e):
+        """e (3,) = X x d - m[i], the Plücker point-line error of the point X = (x0, x1, x2)
+        and the line (d, m[i]); returns |e|^2."""
+        e[0] = x1 * d2 - x2 * d1 - m[i, 0]
+        e[1] = x2 * d0 - x0 * d2 - m[i, 1]
+        e[2] = x0 * d1 - x1 * d0 - m[i, 2]
+        return e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+
     @njit(cache=True)
     def _accumulate(X, d, m, wt, limbs, index, count, q, w, free, H, g):
         """H (D, D) and g (D,) += the correspondences' blocks; returns sum w |e0|^2."""
@@ -55,10 +64,7 @@ if HAVE_NUMBA:
             wi = wt[i]
             x0, x1, x2 = X[i, 0], X[i, 1], X[i, 2]
             d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
-            e[0] = x1 * d2 - x2 * d1 - m[i, 0]
-            e[1] = x2 * d0 - x0 * d2 - m[i, 1]
-            e[2] = x0 * d1 - x1 * d0 - m[i, 2]
-            sq += wi * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+            sq += wi * _line_error(x0, x1, x2, d0, d1, d2, m, i, e)
             dX = d0 * x0 + d1 * x1 + d2 * x2
             # global twist: dv block -[d]x, dw block X d^T - (d.X) I
             A[0, 0], A[0, 1], A[0, 2] = 0.0, d2, -d1
@@ -114,10 +120,7 @@ if HAVE_NUMBA:
             k = limbs[i]
             x0, x1, x2 = X[i, 0], X[i, 1], X[i, 2]
             d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
-            e[0] = x1 * d2 - x2 * d1 - m[i, 0]
-            e[1] = x2 * d0 - x0 * d2 - m[i, 1]
-            e[2] = x0 * d1 - x1 * d0 - m[i, 2]
-            sq += wi * (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+            sq += wi * _line_error(x0, x1, x2, d0, d1, d2, m, i, e)
             if not seen[k]:
                 seen[k] = True
                 origin[k, 0], origin[k, 1], origin[k, 2] = x0, x1, x2

@@ -16,7 +16,7 @@ from mocap.body.model import BodyModel
 from mocap.compiled import HAVE_NUMBA, njit
 
 if HAVE_NUMBA:
-    from mocap.body.twists import se3_exp_one, se3_log_one
+    from mocap.body.twists import hat_into, mul3_into, se3_exp_one, se3_log_one
 
     @njit(cache=True)
     def _rigid_mul(R1, t1, R2, t2, R, t):
@@ -64,13 +64,8 @@ if HAVE_NUMBA:
                 # revolute_exp: R = I + s K + (1 - c) K^2, t = point - R point
                 th = chi[6 + d]
                 sn, cs = np.sin(th), np.cos(th)
-                ax, ay, az = axes[d, 0], axes[d, 1], axes[d, 2]
-                K[0, 0], K[0, 1], K[0, 2] = 0.0, -az, ay
-                K[1, 0], K[1, 1], K[1, 2] = az, 0.0, -ax
-                K[2, 0], K[2, 1], K[2, 2] = -ay, ax, 0.0
-                for i in range(3):
-                    for k in range(3):
-                        K2[i, k] = K[i, 0] * K[0, k] + K[i, 1] * K[1, k] + K[i, 2] * K[2, k]
+                hat_into(axes[d, 0], axes[d, 1], axes[d, 2], K)
+                mul3_into(K, K, K2)
                 for i in range(3):
                     for k in range(3):
                         ER[i, k] = (1.0 if i == k else 0.0) + sn * K[i, k] + (1.0 - cs) * K2[i, k]
