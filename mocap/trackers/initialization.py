@@ -266,12 +266,13 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
 
     groups = dof_partitions(body) if settings.partitioned else []
 
+    limbs = dof_partitions(body)[1:]            # the torso's partition first, then the limbs
+
     def limb_scan(a: np.ndarray, chi: np.ndarray, hyp: dict) -> np.ndarray:
-        sil = energy_for(a, scale, True)
+        sil, fine = energy_for(a, scale, True), energy_for(a, fine_scale, False)
         chi, hyp["limbs_changed"] = scan_limbs(
-            chi, lambda x: sil(x, target), lambda x: energy_for(a, fine_scale, False)(x, fine_target),
-            dof_partitions(body)[1:], body.limits, std * 0.5, settings, rng, library,
-            root_point=sil.shaped.rest_joints[0])
+            chi, lambda x: sil(x, target), lambda x: fine(x, fine_target), limbs, body.limits,
+            std * 0.5, settings, rng, library, root_point=sil.shaped.rest_joints[0])
         return chi
 
     def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
