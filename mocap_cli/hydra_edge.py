@@ -17,9 +17,10 @@ from pathlib import Path
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 from hydra.utils import instantiate
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf, open_dict, read_write
 
 from mocap_cli import CONF_DIR, source_checkout  # (reading CONF_DIR registers the config resolvers)
 
@@ -48,6 +49,59 @@ def _argv(argv: list[str]) -> Iterator[None]:
             os.environ["HYDRA_FULL_ERROR"] = old_env
 
 
+#: the run folder locks :class:`RunFolderLock` took for the single run :func:`run_command` is
+#: running (released as it returns), and the refusal its task raises instead of running
+_run_locks: list[contextlib.ExitStack] = []
+_refusals: list[Exception] = []
+
+
+class RunFolderLock(Callback):
+    """One writer per run folder from before Hydra writes into it (a single run's
+    ``hydra.run.dir``; ``hydra.callbacks.run_folder_lock`` in conf/tracking.yaml and
+    conf/video_check.yaml). Hydra writes ``.hydra/`` (config, hydra.yaml, overrides) and opens
+    the job's log file as a job starts, before the task could take the folder's lock
+    (:func:`mocap.run_folder.lock.run_lock`): the lock is taken here, as the run starts, and
+    held until :func:`run_command` returns (the run re-enters it). Refused (another process
+    holds it): Hydra is told to write nothing (no ``.hydra/``, the log on the console only) and
+    the task raises the refusal in one line, so the other run's files stay as they are. A
+    --multirun's jobs take their folders' locks in the task, as before."""
+
+    def on_run_start(self, config: DictConfig, **kwargs) -> None:
+        from mocap.run_folder.lock import RunFolderBusy, run_lock
+
+        if not _run_locks:              # Hydra run by other code than run_command: the task locks
+            return
+        hydra_config = HydraConfig.instance()
+        before = hydra_config.cfg
+        hydra_config.set_config(config)     # the ${hydra:...} resolvers of run.dir read it
+        try:
+            out_dir = Path(str(OmegaConf.select(config, "hydra.run.dir")))   # (${now:} is cached)
+        finally:
+            hydra_config.cfg = before
+        try:
+            _run_locks[-1].enter_context(run_lock(out_dir))
+        except RunFolderBusy as exc:
+            _refusals.append(exc)
+            with read_write(config.hydra), open_dict(config.hydra):
+                config.hydra.output_subdir = None
+                _console_only(config.hydra.job_logging)
+
+
+def _console_only(logging_config: DictConfig | None) -> None:
+    """Drop the handlers that write a file (a ``filename``) from a logging configuration
+    (Hydra's ``job_logging``), and their names from the loggers that use them."""
+    handlers = logging_config.get("handlers") if isinstance(logging_config, DictConfig) else None
+    if not isinstance(handlers, DictConfig):
+        return
+    files = [name for name, h in handlers.items() if isinstance(h, DictConfig) and "filename" in h]
+    for name in files:
+        del handlers[name]
+    loggers = logging_config.get("loggers")
+    for node in [logging_config.get("root"), *(loggers.values() if isinstance(loggers, DictConfig) else ())]:
+        if isinstance(node, DictConfig) and node.get("handlers") is not None:
+            node.handlers = [h for h in node.handlers if h not in files]
+
+
 class _Task:
     """A command's task function; a single run's error is kept and raised after Hydra returns
     (Hydra would add a line of its own before it). A --multirun's job errors are Hydra's."""
@@ -62,6 +116,8 @@ class _Task:
         from mocap_cli.quiet import printed_lines_logged
 
         try:
+            if _refusals:                       # refused by RunFolderLock: nothing is done
+                raise _refusals.pop()
             with printed_lines_logged():        # the job's <name>.log holds what it printed
                 return self.task(cfg)
         except Exception as exc:
@@ -82,7 +138,8 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
     _register_schema()
     wrapped = _Task(task)
     main = hydra.main(version_base=VERSION_BASE, config_path=str(CONF_DIR), config_name=config_name)(wrapped)
-    with _argv([prog, *(overrides or [])]):
+    with _argv([prog, *(overrides or [])]), contextlib.ExitStack() as locks:
+        _run_locks.append(locks)
         try:
             main()
         except Exception as exc:
@@ -90,6 +147,9 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
             if hint is None:
                 raise
             raise UnknownKeyError(hint) from exc
+        finally:
+            _run_locks.remove(locks)
+            _refusals.clear()
     if wrapped.failure is not None:
         raise wrapped.failure
     return 0

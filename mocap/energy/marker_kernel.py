@@ -178,35 +178,42 @@ def nearest_candidates(u, front, obs_xy, valid, confidence, gate2, z, conf, ok):
             ok[lm, c] = (best < gate2) and front[lm, c]
 
 
-@njit(cache=True)
-def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, weight):
-    """Per-view costs (P, L, C) and kept (P, L, C) of :func:`mocap.energy.markers.view_costs`
-    from landmarks X: (P, L, 3) world; R: (C, 3, 3), t: (C, 3), Kc: (C, 3, 3) the pinhole
-    cameras; obs_xy: (L, C, K, 2), valid: (L, C, K); lines: (L, C, K, C, 3) unit-normal
-    epipolar lines; epipoles: (C, C, 3); tau2: gate^2; near: minimum depth; weight:
-    (L, C, K) the kept candidate's weight w in w min(c, tau2) + (1 - w) tau2."""
-    P, L = X.shape[0], X.shape[1]
+@njit(cache=True, inline="always")
+def project_landmark(x0, x1, x2, R, t, Kc, near, u, front):
+    """One landmark (x0, x1, x2) world into every view: pixels u (C, 2) and front (C,) = depth
+    > near; returns how many views see it in front."""
+    nfront = 0
+    for c in range(R.shape[0]):
+        cx = R[c, 0, 0] * x0 + R[c, 0, 1] * x1 + R[c, 0, 2] * x2 + t[c, 0]
+        cy = R[c, 1, 0] * x0 + R[c, 1, 1] * x1 + R[c, 1, 2] * x2 + t[c, 1]
+        cz = R[c, 2, 0] * x0 + R[c, 2, 1] * x1 + R[c, 2, 2] * x2 + t[c, 2]
+        front[c] = cz > near
+        if front[c]:
+            nfront += 1
+        xn, yn = cx / cz, cy / cz
+        u[c, 0] = Kc[c, 0, 0] * xn + Kc[c, 0, 1] * yn + Kc[c, 0, 2]
+        u[c, 1] = Kc[c, 1, 1] * yn + Kc[c, 1, 2]
+    return nfront
+
+
+@njit(cache=True, inline="always")
+def view_costs_into(X, p0, p1, lm0, lm1, a0, a1, R, t, Kc, near, obs_xy, valid, lines, epipoles, tau2, weight,
+                    u, front, cost, kept):
+    """The costs of views a0..a1-1 of landmarks lm0..lm1-1 of particles p0..p1-1 (landmarks X
+    (P, L, 3) world, any strides; the other arguments as :func:`view_costs_fused`'s) into
+    cost[p - p0, lm - lm0, a], and kept[p - p0, lm - lm0, a] set True where the nearest valid
+    candidate (the first of equals) lies within the gate and the landmark in front of view a
+    (left as it is elsewhere); u (C, 2), front (C,): work arrays. The per-view cost of
+    :func:`view_costs_fused` and of ``people_kernel``'s views with several candidates, inlined
+    into both (each compiles it with its own error model). One call covers whole loops: a call
+    per landmark and view made the single-person kernel 3x slower, one per particle 3-10 %
+    (the arrays' reference counts at each call)."""
     C = R.shape[0]
     K = obs_xy.shape[2]
-    cost = np.empty((P, L, C))
-    kept = np.zeros((P, L, C), np.bool_)
-    u = np.empty((C, 2))
-    front = np.empty(C, np.bool_)
-    for p in range(P):
-        for lm in range(L):
-            x0, x1, x2 = X[p, lm, 0], X[p, lm, 1], X[p, lm, 2]
-            nfront = 0
-            for c in range(C):
-                cx = R[c, 0, 0] * x0 + R[c, 0, 1] * x1 + R[c, 0, 2] * x2 + t[c, 0]
-                cy = R[c, 1, 0] * x0 + R[c, 1, 1] * x1 + R[c, 1, 2] * x2 + t[c, 1]
-                cz = R[c, 2, 0] * x0 + R[c, 2, 1] * x1 + R[c, 2, 2] * x2 + t[c, 2]
-                front[c] = cz > near
-                if front[c]:
-                    nfront += 1
-                xn, yn = cx / cz, cy / cz
-                u[c, 0] = Kc[c, 0, 0] * xn + Kc[c, 0, 1] * yn + Kc[c, 0, 2]
-                u[c, 1] = Kc[c, 1, 1] * yn + Kc[c, 1, 2]
-            for a in range(C):
+    for p in range(p0, p1):
+        for lm in range(lm0, lm1):
+            nfront = project_landmark(X[p, lm, 0], X[p, lm, 1], X[p, lm, 2], R, t, Kc, near, u, front)
+            for a in range(a0, a1):
                 best, kb = np.inf, -1
                 for k in range(K):
                     if valid[lm, a, k]:
@@ -216,9 +223,9 @@ def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, we
                         if d2 < best:
                             best, kb = d2, k
                 if kb < 0 or not (best < tau2) or not front[a]:
-                    cost[p, lm, a] = tau2
+                    cost[p - p0, lm - lm0, a] = tau2
                     continue
-                kept[p, lm, a] = True
+                kept[p - p0, lm - lm0, a] = True
                 dx = obs_xy[lm, a, kb, 0] - u[a, 0]
                 dy = obs_xy[lm, a, kb, 1] - u[a, 1]
                 epi = 0.0
@@ -232,11 +239,26 @@ def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, we
                     wy = e[2] * u[a, 1] - e[1]
                     cr = dx * wy - dy * wx
                     epi += db * db + cr * cr / (wx * wx + wy * wy + 1e-12)
-                n = nfront - 1 if front[a] else nfront
+                n = nfront - 1              # (view a is one of the nfront)
                 if n < 1:
                     n = 1
                 cval = 0.5 * best + 0.25 * epi / n
                 cval = cval if (np.isfinite(cval) and cval < tau2) else tau2
                 w = weight[lm, a, kb]
-                cost[p, lm, a] = w * cval + (1.0 - w) * tau2
+                cost[p - p0, lm - lm0, a] = w * cval + (1.0 - w) * tau2
+
+
+@njit(cache=True)
+def view_costs_fused(X, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, weight):
+    """Per-view costs (P, L, C) and kept (P, L, C) of :func:`mocap.energy.markers.view_costs`
+    from landmarks X: (P, L, 3) world; R: (C, 3, 3), t: (C, 3), Kc: (C, 3, 3) the pinhole
+    cameras; obs_xy: (L, C, K, 2), valid: (L, C, K); lines: (L, C, K, C, 3) unit-normal
+    epipolar lines; epipoles: (C, C, 3); tau2: gate^2; near: minimum depth; weight:
+    (L, C, K) the kept candidate's weight w in w min(c, tau2) + (1 - w) tau2."""
+    P, L = X.shape[0], X.shape[1]
+    C = R.shape[0]
+    cost = np.empty((P, L, C))
+    kept = np.zeros((P, L, C), np.bool_)
+    view_costs_into(X, 0, P, 0, L, 0, C, R, t, Kc, near, obs_xy, valid, lines, epipoles, tau2, weight,
+                    np.empty((C, 2)), np.empty(C, np.bool_), cost, kept)
     return cost, kept

@@ -17,6 +17,7 @@ moved shows up as a tail of long matches, which must survive the rejection.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 
 import cv2
@@ -419,7 +420,7 @@ class ContourMatcher:
         off = np.argwhere(self.kernel_tol > 0) - np.array(self.kernel_tol.shape) // 2
         self.tol_offsets = np.ascontiguousarray(off[np.argsort((off**2).sum(1), kind="stable")],
                                                 np.int64)
-        self.kept = None              # the model masks kept between calls (compiled path)
+        self.kept: dict[int, KeptMasks] = {}   # thread id -> its model masks kept between calls (compiled)
         self.reject_factor, self.min_reject_px = reject_factor, min_reject_px
         self.max_distance_px = max_distance * float(rig.sizes[0][1])
         self.stride, self.observed_stride = stride, observed_stride
@@ -440,18 +441,19 @@ class ContourMatcher:
         """The model's silhouettes (C, h, w) bool in the visibility rig from its pixels (C, V, 2)
         and depths (C, V) (faces with a vertex at depth <= 0.05 culled). Compiled: drawn into
         masks kept between calls (:class:`~mocap.render._compiled.KeptMasks`: only the last
-        call's boxes cleared and scanned; the array returned is overwritten by the next call);
-        the rasterizer's checks where a pixel is not finite."""
+        call's boxes cleared and scanned; the array returned is overwritten by the next call of
+        the same thread: each thread calling a matcher has masks of its own, so threads may
+        share one); the rasterizer's checks where a pixel is not finite."""
         h, w = self.small_size
         px_small = np.asarray(px_small, np.float64)
         if not (HAVE_NUMBA and self.raster.compiled and np.isfinite(px_small).all()):
             return self.raster(px_small, h, w, depth_small, near=0.05)
-        if self.kept is None or self.kept.masks.shape[0] != len(px_small):
-            self.kept = KeptMasks(len(px_small), h, w)
+        kept = self.kept.get(threading.get_ident())
+        if kept is None or kept.masks.shape[0] != len(px_small):
+            kept = self.kept[threading.get_ident()] = KeptMasks(len(px_small), h, w)
         faces, edges = self.raster.kernel_arrays
-        return self.kept.draw(np.ascontiguousarray(px_small[..., 0]),
-                              np.ascontiguousarray(px_small[..., 1]),
-                              np.ascontiguousarray(depth_small > 0.05), faces, edges)
+        return kept.draw(np.ascontiguousarray(px_small[..., 0]), np.ascontiguousarray(px_small[..., 1]),
+                         np.ascontiguousarray(depth_small > 0.05), faces, edges)
 
     def contour_ids(self, verts: np.ndarray, centers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The vertices on the contour generator seen from each camera centre (C, 3): ids
@@ -516,8 +518,9 @@ class ContourMatcher:
         ids, marked = self.contour_ids(verts, self.rig.centers)
         out = np.empty(ids.shape, np.int64)
         count = np.zeros(len(ids), np.int64)
-        if self.kept is not None and model_masks is self.kept.masks:
-            boxes = self.kept.boxes
+        kept = self.kept.get(threading.get_ident())
+        if kept is not None and model_masks is kept.masks:
+            boxes = kept.boxes
         else:
             boxes = np.zeros((len(ids), 4), np.int64)
             boxes[:, 1], boxes[:, 3] = h, w

@@ -239,7 +239,8 @@ class KeptMasks:
     """Silhouettes drawn again and again at one size (the local step: the same views every
     iteration): the masks, the accumulation image and each mask's drawn box kept between
     calls, so that a call clears and scans only the boxes (:func:`_rasterize_boxes`). One
-    per user: not for concurrent calls."""
+    per user, never shared between threads (a call overwrites the masks another thread is
+    reading): :class:`~mocap.local.contour.ContourMatcher` keeps one per thread."""
 
     def __init__(self, count: int, height: int, width: int):
         self.masks = np.zeros((count, height, width), bool)

@@ -157,11 +157,12 @@ def restore_stored_config(out_dir: Path) -> None:
 
 def describe_run(out_dir: Path, config: Mapping | None, overrides: list[str] | None) -> None:
     """``.hydra/config.yaml`` = ``config`` and ``.hydra/overrides.yaml`` = ``overrides`` (each
-    where given), when the folder has a ``.hydra/``: Hydra writes them as a job starts, before
-    the job can take the folder's lock, so a second process refused by the lock has overwritten
-    them with its own request; the holder writes its own back as it seals the run (and a run
-    refused for a changed config writes back the stored one). Hydra's ``hydra.yaml`` (the
-    launcher's settings) is left as it is."""
+    where given), when the folder has a ``.hydra/``: Hydra writes them as a job starts. A single
+    run takes the folder's lock before that (``mocap_cli.hydra_edge.RunFolderLock``: a refused
+    one writes nothing there); a --multirun job only as its task starts, so a second process
+    refused by the lock has overwritten them (and ``hydra.yaml``) with its own request: the
+    holder writes its own back as it seals the run (and a run refused for a changed config
+    writes back the stored one)."""
     import yaml
 
     hydra_dir = Path(out_dir) / ".hydra"

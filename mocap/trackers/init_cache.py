@@ -204,13 +204,19 @@ def initial_estimate(tracker, frame: Frame, cache: str | os.PathLike | None = No
 class SilhouetteInitialisation:
     """Mixin of the silhouette trackers: their self-initialisation from a frame's masks
     (``initializer``: :class:`SilhouetteStart`) and the validation of
-    an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``."""
+    an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``; ``library``
+    (below) is the motion library its start draws limb hypotheses from."""
+
+    #: poses (T, D) (NaN: no value) the start's limb hypotheses draw from
+    #: (:class:`SilhouetteStart`'s ``library``); None: uniform draws within the joint limits.
+    #: A tracker with a motion library sets it (the hybrid: its restarts' library).
+    library: np.ndarray | None = None
 
     def initializer(self, cache=None):
         """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
         ``cache`` (None: not cached)."""
         return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng,
-                                      library=getattr(self, "library", None)), cache)
+                                      library=self.library), cache)
 
     def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
         """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""

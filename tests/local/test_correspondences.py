@@ -385,6 +385,83 @@ def test_masks_kept_between_calls_equal_fresh_rasterizer_masks(body, walk):
     assert touching >= 2                             # the moved body crosses an image border
 
 
+def test_one_matcher_called_from_two_threads_keeps_each_threads_masks(body, walk):
+    """The model masks a matcher keeps between calls are per thread: a thread's masks are not
+    overwritten by another thread's call in between (ordered by events, not by timing); each
+    equals the rasterizer's masks of its own pose."""
+    import threading
+
+    pytest.importorskip("numba")
+    rig, seq = walk
+    matcher = ContourMatcher(body, rig)
+    h, w = matcher.small_size
+    sb = body.shaped(seq.gt.alpha)
+    far = seq.gt.chi[0].astype(np.float64).copy()
+    far[:3] += [0.8, 0.3, 0.0]
+    pixels = [project(matcher.small, sb.pose(chi).vertices[0].astype(np.float64), return_depth=True)
+              for chi in (seq.gt.chi[1].astype(np.float64), far)]
+    want = [matcher.raster(px, h, w, depth, near=0.05) for px, depth in pixels]
+    assert not np.array_equal(want[0], want[1])
+    drawn, other_done, got = threading.Event(), threading.Event(), {}
+
+    def first():
+        masks = matcher.model_masks(*pixels[0])
+        drawn.set()
+        other_done.wait(60)
+        got[0] = masks.copy()               # read after the other thread's call
+
+    def second():
+        drawn.wait(60)
+        got[1] = matcher.model_masks(*pixels[1]).copy()
+        other_done.set()
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+
+
+def test_two_local_trackers_in_two_threads_give_what_each_gives_alone(body, walk):
+    """Two local trackers stepped at once in two threads, the second even sharing the first's
+    contour matcher, track as each does alone, bit for bit (the threads switched every 10 us:
+    with one set of kept masks per matcher, this failed 3 runs of 3)."""
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    rig, seq = walk
+    starts = [seq.gt.chi[0].astype(np.float64).copy() for _ in range(2)]
+    starts[1][body.dof_index("r_knee_flex")] += np.deg2rad(12)
+    starts[1][0] += 0.03
+
+    def make(k, matcher=None):
+        tr = LocalTracker(body, rig, sift={"enabled": False}, iterations=3)
+        tr.initialize(starts[k], seq.gt.alpha)
+        if matcher is not None:
+            tr.matcher = matcher
+        return tr
+
+    def run(tr):
+        return [tr.step(frame_of(seq, f)).chi for f in (1, 2)]
+
+    alone = [run(make(0)), run(make(1))]
+    first = make(0)
+    pair = [first, make(1, matcher=first.matcher)]
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-5)             # the threads take turns often
+    try:
+        with ThreadPoolExecutor(2) as pool:
+            together = list(pool.map(run, pair))
+    finally:
+        sys.setswitchinterval(interval)
+    assert not np.array_equal(alone[0][-1], alone[1][-1])
+    for a, b in zip(alone, together, strict=True):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x, y)
+
+
 def test_observed_contours_on_the_masks_box_are_the_whole_image_ones():
     """The observed outline traced on each mask's box grown by a pixel is cv2.findContours on
     the whole image, point for point and in the same order: blobs inside and over every

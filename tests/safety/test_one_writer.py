@@ -136,12 +136,14 @@ TRACK = ["tracker=apf", "data=walk_small", "data.frames=2", "tracker.particles=4
          "recording.enabled=false"]
 
 
-#: ``mocap track`` that, once it holds the lock, waits for the file argv[1] before going on
+#: ``mocap track`` that, once it holds the lock and runs, says so in the file argv[1] + ".ready"
+#: and waits for the file argv[1] before going on
 HELD_TRACK = """
 import pathlib, sys, time
 import mocap.run_folder.attempt as attempt
 go, tidy = pathlib.Path(sys.argv[1]), attempt.tidy_leftovers
 def waiting(out_dir):
+    go.with_suffix(".ready").touch()
     while not go.exists():
         time.sleep(0.01)
     return tidy(out_dir)
@@ -151,15 +153,33 @@ sys.exit(main(sys.argv[2:]))
 """
 
 
+def folder_files(run: Path) -> dict[Path, bytes]:
+    """Every file under ``run`` but the lock file: its content."""
+    return {p.relative_to(run): p.read_bytes() for p in sorted(run.rglob("*"))
+            if p.is_file() and p.name != LOCK}
+
+
 def test_two_track_processes_on_one_folder_the_second_refuses_the_first_completes(tmp_path):
     run, go = tmp_path / "run", tmp_path / "go"
     first = subprocess.Popen([sys.executable, "-c", HELD_TRACK, str(go), "track", f"hydra.run.dir={run}",
                               "seed=0", *TRACK], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env=ENV, cwd=REPO)
-    wait_for_holder(run, first.pid, first)
-    second = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={run}", "seed=1",
-                             *TRACK], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=600)
-    go.touch()
+    try:
+        wait_for_holder(run, first.pid, first)
+        while not go.with_suffix(".ready").exists():                # Hydra's files written, the run begun
+            assert first.poll() is None, first.stderr.read()[-2000:]
+            time.sleep(0.01)
+        files = folder_files(run)
+        assert {Path(".hydra/hydra.yaml"), Path(".hydra/config.yaml"), Path("track.log")} <= set(files)
+        second = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={run}", "seed=1",
+                                 *TRACK], capture_output=True, text=True, env=ENV, cwd=REPO, timeout=600)
+        # the refused process wrote nothing into the folder: the first run's files as they were
+        # (Hydra's .hydra/ and the job's log included), nothing added
+        after = folder_files(run)
+        assert after.keys() == files.keys() and all(after[k] == files[k] for k in files), \
+            [str(k) for k in after if after[k] != files.get(k)]
+    finally:
+        go.touch()                                               # (the first goes on, whatever failed)
     first_out, first_err = first.communicate(timeout=900)
     assert second.returncode == 2
     lines = [line for line in second.stderr.splitlines() if line.strip()]
@@ -171,9 +191,11 @@ def test_two_track_processes_on_one_folder_the_second_refuses_the_first_complete
     manifest = json.loads((run / "manifest.json").read_text())
     assert "seed=0" in manifest["overrides"] and "seed=1" not in manifest["overrides"]
     assert not (run / LOCK).exists()                             # removed by its holder
-    # Hydra wrote the refused process's request into .hydra/ before it met the lock: the holder
-    # wrote its own back as it sealed the run, so the folder describes the results it holds
+    # the folder describes the results it holds: .hydra/ is the first run's, the log has no refusal
     hydra_config = yaml.safe_load((run / ".hydra" / "config.yaml").read_text())
     assert hydra_config["seed"] == 0 and hydra_config == metrics["config"]
     hydra_overrides = yaml.safe_load((run / ".hydra" / "overrides.yaml").read_text())
     assert "seed=0" in hydra_overrides and "seed=1" not in hydra_overrides
+    hydra_yaml = yaml.safe_load((run / ".hydra" / "hydra.yaml").read_text())["hydra"]
+    assert "seed=0" in hydra_yaml["overrides"]["task"] and "seed=1" not in hydra_yaml["overrides"]["task"]
+    assert "refused" not in (run / "track.log").read_text()

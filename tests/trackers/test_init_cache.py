@@ -153,3 +153,20 @@ def test_the_limb_hypotheses_change_the_key_and_read_their_library_only_when_on(
     assert key(off, lib_a) == key(off, lib_b) == key(off)          # off: the old start's key
     assert key(on, lib_a) != key(off, lib_a)                       # on: not the old start's result
     assert key(on, lib_a) != key(on, lib_b)                        # another library, another start
+
+
+def test_a_silhouette_trackers_start_draws_from_the_library_the_tracker_declares():
+    """The library is part of the silhouette trackers' contract (SilhouetteInitialisation.library):
+    the local and APF trackers declare none, the hybrid its restarts' motion library, and the
+    start its initializer hands out is given exactly that array."""
+    from mocap.trackers.init_cache import SilhouetteInitialisation
+    from mocap.trackers.presets import make_tracker
+
+    body, rig = load_body("paper22"), rig_from_config("ring4_small")
+    assert SilhouetteInitialisation.library is None
+    for name in ("local", "apf"):
+        tracker = make_tracker(name, body=body, rig=rig, rng=np.random.default_rng(0))
+        assert tracker.library is None and tracker.initializer().start.library is None
+    hybrid = make_tracker("hybrid", body=body, rig=rig, rng=np.random.default_rng(0))
+    assert hybrid.library is not None and hybrid.library.shape[1] == body.num_dofs
+    assert hybrid.initializer().start.start.library is hybrid.library      # Refined(Cached(start))

@@ -119,15 +119,18 @@ def _greedy_combos(D, free, threshold_px):
             yield combo
 
 
-def projected_boxes(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray | None = None
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Per person and view, the box x0, y0, x1, y1 (..., C, 4) and the mean depth (..., C) of
-    the keypoints projected to u (..., L, C, 2) at depth (..., L, C) (NaN: unknown) that land
-    in front of the camera (and inside images of ``sizes`` (C, 2) width, height when given);
-    NaN where none does."""
+def _landing(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray | None) -> np.ndarray:
+    """(..., L, C) bool: the keypoints projected to u (..., L, C, 2) at depth (..., L, C) that are
+    known (finite), land in front of the camera and (``sizes`` (C, 2) width, height given) inside
+    its image."""
     ok = np.all(np.isfinite(u), axis=-1) & np.isfinite(depth) & (np.nan_to_num(depth) > 0)
     if sizes is not None:
         ok &= np.all((u >= 0) & (u < np.asarray(sizes, np.float64)), axis=-1)
+    return ok
+
+
+def _boxes(u: np.ndarray, depth: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`projected_boxes` of the keypoints ``ok`` (:func:`_landing`)."""
     x, y = np.where(ok, u[..., 0], np.nan), np.where(ok, u[..., 1], np.nan)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -135,6 +138,15 @@ def projected_boxes(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray | None =
         n = ok.sum(axis=-2)
         mean = np.where(ok, depth, 0.0).sum(axis=-2) / np.maximum(n, 1)
         return box, np.where(n > 0, mean, np.nan)
+
+
+def projected_boxes(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per person and view, the box x0, y0, x1, y1 (..., C, 4) and the mean depth (..., C) of
+    the keypoints projected to u (..., L, C, 2) at depth (..., L, C) (NaN: unknown) that land
+    in front of the camera (and inside images of ``sizes`` (C, 2) width, height when given);
+    NaN where none does."""
+    return _boxes(u, depth, _landing(u, depth, sizes))
 
 
 def views_expected(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray, others_box: np.ndarray,
@@ -148,10 +160,10 @@ def views_expected(u: np.ndarray, depth: np.ndarray, sizes: np.ndarray, others_b
     missing from such a view is evidence against it; one outside a view's image, or hidden in
     it, is not."""
     known = np.all(np.isfinite(u), axis=-1) & np.isfinite(depth)                        # (L, C)
-    inside = known & (np.nan_to_num(depth) > 0) & np.all((u >= 0) & (u < np.asarray(sizes, np.float64)), -1)
+    inside = _landing(u, depth, sizes)
     n = known.sum(axis=0)
     in_image = (n > 0) & (2 * inside.sum(axis=0) >= np.maximum(n, 1))                 # (C,)
-    box, near = projected_boxes(u, depth, sizes)                                       # (C, 4), (C,)
+    box, near = _boxes(u, depth, inside)                                               # (C, 4), (C,)
     area = np.maximum((box[:, 2] - box[:, 0]) * (box[:, 3] - box[:, 1]), 1e-9)
     ob = others_box                                                                    # (P, C, 4)
     w = np.clip(np.minimum(ob[..., 2], box[:, 2]) - np.maximum(ob[..., 0], box[:, 0]), 0, None)

@@ -8,7 +8,8 @@ holding one candidate (the usual case: a track sees its own skeleton, one keypoi
 landmark and view) the candidate, its epipolar lines and weight are the same for every
 particle, so each step is one loop over the particles that the compiler turns into vector
 instructions (same IEEE operations, the same results). A view with several candidates (each
-particle picks its nearest) runs the particle-by-particle loop of the single-person kernel.
+particle picks its nearest) runs the particle-by-particle loop of the single-person kernel
+(:func:`mocap.energy.marker_kernel.view_costs_into`, inlined).
 """
 
 from __future__ import annotations
@@ -16,59 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from mocap.compiled import njit
-from mocap.energy.marker_kernel import _se3_exp
-
-
-@njit(cache=True, error_model="numpy")
-def _nearest_cost(X, p, lm, a, R, t, Kc, obs_xy, valid, lines, epipoles, tau2, near, weight):
-    """The cost of view a of landmark lm of particle p (landmarks X (L, 3, P)) as
-    :func:`view_costs_fused` computes it (several candidates: the nearest one)."""
-    C = R.shape[0]
-    K = obs_xy.shape[2]
-    u = np.empty((C, 2))
-    front = np.empty(C, np.bool_)
-    x0, x1, x2 = X[lm, 0, p], X[lm, 1, p], X[lm, 2, p]
-    nfront = 0
-    for c in range(C):
-        cx = R[c, 0, 0] * x0 + R[c, 0, 1] * x1 + R[c, 0, 2] * x2 + t[c, 0]
-        cy = R[c, 1, 0] * x0 + R[c, 1, 1] * x1 + R[c, 1, 2] * x2 + t[c, 1]
-        cz = R[c, 2, 0] * x0 + R[c, 2, 1] * x1 + R[c, 2, 2] * x2 + t[c, 2]
-        front[c] = cz > near
-        if front[c]:
-            nfront += 1
-        xn, yn = cx / cz, cy / cz
-        u[c, 0] = Kc[c, 0, 0] * xn + Kc[c, 0, 1] * yn + Kc[c, 0, 2]
-        u[c, 1] = Kc[c, 1, 1] * yn + Kc[c, 1, 2]
-    best, kb = np.inf, -1
-    for k in range(K):
-        if valid[lm, a, k]:
-            dx = obs_xy[lm, a, k, 0] - u[a, 0]
-            dy = obs_xy[lm, a, k, 1] - u[a, 1]
-            d2 = dx * dx + dy * dy
-            if d2 < best:
-                best, kb = d2, k
-    if kb < 0 or not (best < tau2) or not front[a]:
-        return tau2
-    dx = obs_xy[lm, a, kb, 0] - u[a, 0]
-    dy = obs_xy[lm, a, kb, 1] - u[a, 1]
-    epi = 0.0
-    for b in range(C):
-        if b == a or not front[b]:
-            continue
-        ln = lines[lm, a, kb, b]
-        db = ln[0] * u[b, 0] + ln[1] * u[b, 1] + ln[2]
-        e = epipoles[a, b]
-        wx = e[2] * u[a, 0] - e[0]
-        wy = e[2] * u[a, 1] - e[1]
-        cr = dx * wy - dy * wx
-        epi += db * db + cr * cr / (wx * wx + wy * wy + 1e-12)
-    n = nfront - 1
-    if n < 1:
-        n = 1
-    cval = 0.5 * best + 0.25 * epi / n
-    cval = cval if (np.isfinite(cval) and cval < tau2) else tau2
-    w = weight[lm, a, kb]
-    return w * cval + (1.0 - w) * tau2
+from mocap.energy.marker_kernel import _se3_exp, view_costs_into
 
 
 @njit(cache=True, error_model="numpy")
@@ -90,6 +39,8 @@ def people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, 
     front = np.empty((C, P), np.bool_)
     nfront = np.empty(P, np.int64)
     dx, dy, d2, epi, total = np.empty(P), np.empty(P), np.empty(P), np.empty(P), np.empty(P)
+    u1, front1 = np.empty((C, 2)), np.empty(C, np.bool_)                   # several candidates' work arrays
+    cost1, kept1 = np.empty((P, 1, C)), np.zeros((P, 1, C), np.bool_)
     for n in range(T):
         X = landmarks_by_particle(parents, dof_joint, axes[n], rest_joints[n], chi[n], lm_joint, rest[n])
         for lm in range(L):
@@ -123,9 +74,11 @@ def people_landmark_costs(parents, dof_joint, axes, rest_joints, chi, lm_joint, 
                         total[p] = tau2 if a == 0 else total[p] + tau2
                     continue
                 if count > 1:                                   # each particle's nearest candidate
+                    view_costs_into(X.transpose(2, 0, 1), 0, P, lm, lm + 1, a, a + 1, R, t, Kc, near,
+                                    obs_xy[n], valid[n], lines[n], epipoles, tau2, weight[n], u1, front1,
+                                    cost1, kept1)
                     for p in range(P):
-                        cost = _nearest_cost(X, p, lm, a, R, t, Kc, obs_xy[n], valid[n], lines[n], epipoles,
-                                             tau2, near, weight[n])
+                        cost = cost1[p, 0, a]
                         total[p] = cost if a == 0 else total[p] + cost
                     continue
                 ox, oy = obs_xy[n, lm, a, k0, 0], obs_xy[n, lm, a, k0, 1]
