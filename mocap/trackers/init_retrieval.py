@@ -206,6 +206,7 @@ def initialize_by_retrieval(body: BodyModel, rig: Rig, masks: np.ndarray, rng: n
     target = silhouette_target(masks, scale, view_names=names)
     fine_target = silhouette_target(masks, fine_scale, view_names=names)
     limits = body.limits
+    root_point = shaped.rest_joints[0]
     report = _Progress(progress, 2 + settings.retrieval_keep + settings.keep)
 
     def fine(a_shaped, chi: np.ndarray) -> float:
@@ -230,10 +231,20 @@ def initialize_by_retrieval(body: BodyModel, rig: Rig, masks: np.ndarray, rng: n
     coarse = SilhouetteEnergy(shaped, rig, coarse_scale, mesh=mesh)
     e = np.concatenate([coarse(c, coarse_target) for c in np.array_split(cands, max(1, len(cands) // 512))])
     report("retrieval", 1.0)
-    # headings more than 60 deg apart (the refinement moves the limbs; the heading it hardly moves)
-    picked = distinct_best(e, yaws, joints, settings.retrieval_keep, np.pi / 3 + 1e-9, np.inf)
     parts = dof_partitions(body)
     std = np.r_[np.full(3, 0.05), np.full(3, 0.15), np.full(body.num_dofs - 6, 0.3)]
+    # each heading's best pose, its root searched once (turns, leans, small moves); then the best
+    # headings more than 60 deg apart (the limbs' search hardly moves the heading)
+    L = len(joints)
+    best_rows = [h * L + int(np.argmin(e[h * L:(h + 1) * L])) for h in range(len(yaws))]
+    lean = lean_of(shaped)
+    rooted = [coordinate_search(lambda x: coarse(x, coarse_target), cands[i], parts[:1], std, limits, rng,
+                                settings.retrieval_samples // 2, 1, root_point=root_point, lean=lean)
+              for i in best_rows]
+    e_root = np.array([r[1] for r in rooted])
+    picked = [best_rows[h] for h in distinct_best(e_root, yaws, np.zeros((1, 1)), settings.retrieval_keep,
+                                                  np.pi / 3 + 1e-9, np.inf)]
+    start = {i: r[0] for i, r in zip(best_rows, rooted, strict=True)}
     lib_rows = np.repeat(cands[:1], len(joints), axis=0)
     lib_rows[:, 6:] = joints
     C, move = settings.shape_components, float(settings.shape_translate)
@@ -263,8 +274,8 @@ def initialize_by_retrieval(body: BodyModel, rig: Rig, masks: np.ndarray, rng: n
 
     hypotheses = []
     for i in picked:      # 3. each: the shape, the limbs anew and two sweeps with it, the contours
-        chi, a = shape(cands[i], alpha, 1.0, coarse_scale)
-        chi = pose(chi, a, coarse_scale, 1.0, settings.retrieval_sweeps, True)
+        a = alpha
+        chi = pose(start[i], a, coarse_scale, 1.0, settings.retrieval_sweeps, True)
         chi, e_fine = local(body.shaped(a), chi)
         h, p = divmod(i, len(joints))
         hypotheses.append({"heading_deg": float(np.degrees(yaws[h])), "library_row": int(p),
@@ -275,7 +286,7 @@ def initialize_by_retrieval(body: BodyModel, rig: Rig, masks: np.ndarray, rng: n
     # once more; the lowest fine E_S wins
     finals = []
     for hyp in hypotheses[:max(1, settings.keep)]:
-        chi, a = shape(hyp["chi"], hyp.pop("alpha"), 0.6, scale)
+        chi, a = shape(hyp["chi"], hyp.pop("alpha"), 1.0, scale)
         chi = pose(chi, a, scale, 0.5, settings.retrieval_sweeps, False)
         chi, hyp["searched_energy"] = local(body.shaped(a), chi)
         chi, a = shape(chi, a, 0.4, scale)
