@@ -36,7 +36,7 @@ import numpy as np
 
 from mocap.cameras.calibration_io import rig_to_dict
 from mocap.safe_files import write_npz_atomic
-from mocap.trackers import initialization
+from mocap.trackers import init_retrieval, initialization
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Initializer, initial_estimate_of
 
@@ -60,7 +60,8 @@ class ProgressLine:
 
 
 class SilhouetteStart:
-    """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`) of
+    """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`, or with
+    ``settings.search`` "retrieval" :func:`~mocap.trackers.init_retrieval.initialize_by_retrieval`) of
     ``body`` seen by ``rig``, with ``settings`` (:class:`InitSettings`) drawing from ``rng``;
     ``library``: poses (T, D) its limb hypotheses draw from (the hybrid's motion library).
     info: seconds, the hypotheses and margin, ``initializer_version``.
@@ -77,9 +78,11 @@ class SilhouetteStart:
         t = time.perf_counter()
         line = ProgressLine("silhouette start-up") if self.progress is None else None
         try:
-            chi, alpha, diag = initialization.initialize_from_silhouettes(
-                self.body, self.rig, frame.masks, self.rng, self.settings, progress=self.progress or line,
-                library=self.library)
+            compute = (init_retrieval.initialize_by_retrieval
+                       if getattr(self.settings, "search", "anneal") == "retrieval"
+                       else initialization.initialize_from_silhouettes)
+            chi, alpha, diag = compute(self.body, self.rig, frame.masks, self.rng, self.settings,
+                                       progress=self.progress or line, library=self.library)
         finally:
             if line is not None:
                 line.close()
@@ -98,7 +101,9 @@ class SilhouetteStart:
         h.update(json.dumps(rig_to_dict(self.rig), sort_keys=True, default=str).encode())
         h.update(repr(self.settings).encode())
         h.update(f"initializer-v{initialization.INITIALIZER_VERSION}".encode())
-        if getattr(self.settings, "limb_hypotheses", 0) and self.library is not None:
+        reads_library = (getattr(self.settings, "limb_hypotheses", 0)
+                         or getattr(self.settings, "search", "anneal") == "retrieval")
+        if reads_library and self.library is not None:
             h.update(np.ascontiguousarray(self.library, dtype=np.float64).tobytes())
         h.update(json.dumps(self.rng.bit_generator.state, sort_keys=True, default=str).encode())
         return h.hexdigest()[:20]

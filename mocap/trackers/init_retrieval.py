@@ -1,24 +1,32 @@
 """The silhouette start by retrieval (``InitSettings.search = "retrieval"``, issue 38 item 2): a
-search whose cost does not grow with annealing layers.
+search whose cost does not grow with annealing layers. Tried on the dev split and NOT chosen
+(docs/results/speed.md, "Initialiser, version 5 tried"): off by default.
 
 1. position: the point nearest to the rays through the silhouettes' centroids
    (:func:`mocap.trackers.initialization.silhouette_centre`);
-2. retrieval: every pose of a motion library (the pose prior's training poses and their mirror
-   images, :func:`library_of`; the rest pose with them) at every one of ``retrieval_headings``
-   headings about the vertical, all scored in batches by E_S at ``retrieval_resolution`` on the
-   energy mesh: one set of coarse evaluations for every heading hypothesis;
-3. the ``retrieval_keep`` best distinct candidates (:func:`distinct_best`: another heading or
-   another pose) each refined by :func:`coordinate_search` (partition by partition, the root and
-   each limb, a batch of Gaussian proposals around the best pose so far, the first sweep's limb
-   batches also holding the library's angles for that limb; a proposal replaces the pose only
-   where it lowers E_S: no annealing weights, no resampling) and the contour step, then ranked by
-   the fine E_S (``select_resolution``, full mesh);
-4. the ``keep`` best: the shape searched once (pose held, with the body's shift), one more
-   sweep of the coordinate search at ``resolution`` and the contour step; the lowest fine E_S wins.
+2. retrieval: every pose of a motion library (the procedural pose prior's training poses and
+   their mirror images, :func:`library_of`, the hybrid's restart library; the rest pose with
+   them) at each of ``retrieval_headings`` headings about the vertical, all scored in batches by
+   E_S at ``retrieval_resolution`` on the energy mesh: one set of coarse evaluations shared by
+   every heading hypothesis;
+3. each heading's best pose has its root searched once (:func:`coordinate_search` on the root:
+   small moves, turns about the vertical, trunk leans with the legs held, :func:`leaned`); the
+   ``retrieval_keep`` best headings more than 60 deg apart (:func:`distinct_best`) are each
+   searched over every partition (``retrieval_sweeps`` sweeps; on the first, each limb's batch
+   also holds the library's angles for it and ``retrieval_draws`` uniform draws), then the
+   contour step (kept only where it lowers the fine E_S), and ranked by the fine E_S
+   (``select_resolution``, full mesh);
+4. the ``keep`` best: the shape (pose held, with the body's shift; an APF of ``shape_particles``
+   x ``shape_layers``), the coordinate search again at ``resolution`` with that shape, the
+   contour step, the shape once more, the contour step; the lowest fine E_S wins;
+5. with ``limb_hypotheses`` > 0 (the hybrid presets), the winner's limbs searched anew
+   (:func:`mocap.trackers.initialization.scan_limbs`), as version 3 does with ``limb_stage`` "end".
 
-Cost, in silhouette evaluations: L x H for the retrieval (L library poses, H headings), then per
-refined candidate ``retrieval_sweeps`` x 5 partitions x ``retrieval_samples`` (+ 4 L limb
-rows on the first sweep), independent of any layer count.
+:func:`coordinate_search` is a greedy batch search: per partition a batch of proposals around
+the best pose so far, the best taken where it lowers E_S (no annealing weights, no resampling).
+Cost in silhouette evaluations: L x H for the retrieval, about 30 x H for the root searches,
+then per candidate ``retrieval_sweeps`` x (5 x ``retrieval_samples`` + 14 root moves) + 4 x (L +
+``retrieval_draws``), independent of any layer count.
 """
 
 from __future__ import annotations
@@ -177,6 +185,8 @@ def coordinate_search(energy: Callable[[np.ndarray], np.ndarray], chi: np.ndarra
                 turned = np.repeat(chi[None], len(TURNS), axis=0)
                 turned[:, :6] = perturb_root(turned[:, :6], turn, root_point)
                 batch = np.vstack([batch, turned])
+                if lean is not None:                              # each turn also leaned
+                    batch = np.vstack([batch, *(leaned(t, LEANS * shrink**s, lean, limits) for t in turned)])
             if lean is not None and free[:6].any():
                 batch = np.vstack([batch, leaned(chi, LEANS * shrink**s, lean, limits)])
             e = energy(batch)

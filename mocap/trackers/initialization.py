@@ -228,10 +228,9 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     ("done", 1.0) and no other at 1.0). The results do not depend on it."""
     if masks is None:
         raise ValueError("silhouette initialisation needs masks")
-    if settings.search == "retrieval":      # version 5: mocap.trackers.init_retrieval
-        from mocap.trackers.init_retrieval import initialize_by_retrieval
-
-        return initialize_by_retrieval(body, rig, masks, rng, settings, progress, library)
+    if settings.search != "anneal":
+        raise ValueError(f"setting search = {settings.search!r}: this is the annealed start; the "
+                         "retrieval start is mocap.trackers.init_retrieval.initialize_by_retrieval")
     scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
     target = silhouette_target(masks, scale, view_names=tuple(rig.names))
     small = rig.scaled(scale)

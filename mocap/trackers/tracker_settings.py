@@ -88,7 +88,8 @@ class InitSettings:
     limb_layers: int = 6
     search: str = "anneal"        # "anneal": the annealed searches above (INITIALIZER_VERSION 3);
                                   # "retrieval": library poses x headings scored in one batch, the
-                                  # best refined without annealing (mocap.trackers.init_retrieval)
+                                  # best refined without annealing (mocap.trackers.init_retrieval;
+                                  # tried on dev, not chosen: docs/results/speed.md)
     retrieval_resolution: int = 128   # px (longest side) of the retrieval and its refinement
     retrieval_headings: int = 12  # headings about the vertical each library pose is tried at
     retrieval_keep: int = 6       # distinct retrieved candidates refined

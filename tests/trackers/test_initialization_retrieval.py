@@ -133,13 +133,39 @@ def test_a_rendered_pose_is_started_within_a_few_centimetres(body):
     cheap = InitSettings(search="retrieval", retrieval_headings=12, retrieval_keep=3, retrieval_samples=30,
                          keep=1, resolution=128, retrieval_resolution=96, select_resolution=160,
                          shape_particles=10, shape_layers=3, local_iterations=5)
-    est, alpha, diag = initialize_from_silhouettes(body, rig, masks, np.random.default_rng(0), cheap)
+    est, alpha, diag = retrieval.initialize_by_retrieval(body, rig, masks, np.random.default_rng(0), cheap)
     assert diag["search"] == "retrieval"
     error_mm = np.linalg.norm(body.shaped(alpha).joints(est[None])[0] - truth, axis=1).mean() * 1000
     assert error_mm < 40, error_mm
     T = se3_exp(est[None, :6])[0]
     yaw = np.degrees(np.arctan2(T[1, 0], T[0, 0]))
     assert abs((yaw - 100 + 180) % 360 - 180) < 30
+
+
+def test_the_start_runs_the_search_its_settings_name(body, monkeypatch):
+    from mocap.trackers import initialization
+    from mocap.trackers.base import Frame
+    from mocap.trackers.init_cache import SilhouetteStart
+
+    rig, masks = rendered(body, np.zeros(body.num_dofs), size=32)
+    ran = []
+
+    def fake(name):
+        def compute(body, rig, masks, rng, settings, progress=None, library=None):
+            ran.append(name)
+            return np.zeros(body.num_dofs), np.zeros(body.num_shape), {}
+        return compute
+
+    monkeypatch.setattr(retrieval, "initialize_by_retrieval", fake("retrieval"))
+    monkeypatch.setattr(initialization, "initialize_from_silhouettes", fake("anneal"))
+    frame = Frame(index=0, masks=masks, images=None, detections=None)
+    for settings in (InitSettings(), InitSettings(search="retrieval")):
+        SilhouetteStart(body, rig, settings, np.random.default_rng(0), progress=lambda s, f: None)(frame)
+    assert ran == ["anneal", "retrieval"]
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="search = 'retrieval'"):     # before any work
+        initialize_from_silhouettes(body, rig, masks, np.random.default_rng(0),
+                                    InitSettings(search="retrieval"))
 
 
 def test_the_search_setting_is_checked_and_the_default_is_the_annealed_start():
@@ -162,6 +188,14 @@ def test_the_retrieval_start_has_its_own_cache_key():
         return SilhouetteStart(body, rig, settings, np.random.default_rng(0)).cache_key(frame)
 
     assert key(InitSettings(search="retrieval")) != key(InitSettings())
+    lib_a, lib_b = np.zeros((3, body.num_dofs)), np.ones((3, body.num_dofs))
+
+    def key_with(library):
+        start = SilhouetteStart(body, rig, InitSettings(search="retrieval"), np.random.default_rng(0),
+                                library=library)
+        return start.cache_key(frame)
+
+    assert key_with(lib_a) != key_with(lib_b)              # it retrieves from the library it is given
     assert key(InitSettings(search="retrieval", retrieval_keep=3)) != key(InitSettings(search="retrieval"))
 
 
