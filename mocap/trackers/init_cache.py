@@ -20,6 +20,7 @@ key wait for the first (an advisory file lock, POSIX only).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import os
@@ -57,6 +58,22 @@ class ProgressLine:
 
     def close(self) -> None:
         self.bar.close()
+
+
+#: the retrieval start's settings (``InitSettings.search`` "retrieval"), left out of the cache key
+#: of an annealed start: its key stays the one computed before they existed
+RETRIEVAL_FIELDS = ("search", "retrieval_resolution", "retrieval_headings", "retrieval_keep",
+                    "retrieval_samples", "retrieval_sweeps", "retrieval_draws")
+
+
+def settings_text(settings) -> str:
+    """``repr(settings)``, less the fields of :data:`RETRIEVAL_FIELDS` where ``settings.search`` is
+    "anneal" (the dataclass's own format, so an annealed start's key is the one without them)."""
+    if getattr(settings, "search", None) != "anneal" or not dataclasses.is_dataclass(settings):
+        return repr(settings)
+    kept = (f"{f.name}={getattr(settings, f.name)!r}" for f in dataclasses.fields(settings)
+            if f.repr and f.name not in RETRIEVAL_FIELDS)
+    return f"{type(settings).__qualname__}({', '.join(kept)})"
 
 
 class SilhouetteStart:
@@ -99,7 +116,7 @@ class SilhouetteStart:
         h.update(json.dumps([body.name, list(body.dof_names), body.num_shape]).encode())
         h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
         h.update(json.dumps(rig_to_dict(self.rig), sort_keys=True, default=str).encode())
-        h.update(repr(self.settings).encode())
+        h.update(settings_text(self.settings).encode())
         h.update(f"initializer-v{initialization.INITIALIZER_VERSION}".encode())
         reads_library = (getattr(self.settings, "limb_hypotheses", 0)
                          or getattr(self.settings, "search", "anneal") == "retrieval")

@@ -217,3 +217,21 @@ def test_a_lean_turns_the_trunk_about_the_hips_and_leaves_the_legs(body):
     hips = (J[0, name("l_hip")] + J[0, name("r_hip")]) / 2
     radius = np.linalg.norm(J[0, name("head")] - hips)
     np.testing.assert_allclose(moved[name("head")], 2 * radius * np.sin(0.2), rtol=0.1)
+
+
+def test_the_annealed_start_keeps_the_cache_key_it_had_before_the_retrieval_settings():
+    """The retrieval fields are left out of an annealed start's key: its cached starts stay valid.
+    The key below is what the checkout before them (a87b0b3) computes for this frame and library."""
+    from mocap.cameras import rig_from_config
+    from mocap.trackers.base import Frame
+    from mocap.trackers.init_cache import SilhouetteStart, settings_text
+
+    plain = repr(InitSettings())
+    assert settings_text(InitSettings()) == plain.split(", search='anneal'")[0] + ")"
+    on = InitSettings(search="retrieval")
+    assert settings_text(on) == repr(on)
+    body, rig = mocap.load_body("paper22"), rig_from_config("ring4_small")
+    frame = Frame(index=0, masks=np.ones((len(rig.names), 4, 4), bool), images=None, detections=None)
+    start = SilhouetteStart(body, rig, InitSettings(), np.random.default_rng(0),
+                            library=np.zeros((3, body.num_dofs)))
+    assert start.cache_key(frame) == "1e2603d2cc617b856880"
