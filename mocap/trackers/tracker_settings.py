@@ -92,10 +92,10 @@ class InitSettings:
                                   # tried on dev, not chosen: docs/results/speed.md)
     retrieval_resolution: int = 128   # px (longest side) of the retrieval and its refinement
     retrieval_headings: int = 12  # headings about the vertical each library pose is tried at
-    retrieval_keep: int = 6       # distinct retrieved candidates refined
+    retrieval_keep: int = 4       # retrieved headings (more than 60 deg apart) searched
     retrieval_samples: int = 40   # proposals per partition and sweep of the coordinate search
     retrieval_sweeps: int = 3     # sweeps of the coordinate search on the keep best candidates
-    retrieval_draws: int = 150    # uniform draws of each limb's angles beside the library's (first sweep)
+    retrieval_draws: int = 100    # uniform draws of each limb's angles beside the library's (first sweep)
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
