@@ -20,6 +20,7 @@ key wait for the first (an advisory file lock, POSIX only).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hashlib
 import json
 import os
@@ -36,7 +37,7 @@ import numpy as np
 
 from mocap.cameras.calibration_io import rig_to_dict
 from mocap.safe_files import write_npz_atomic
-from mocap.trackers import initialization
+from mocap.trackers import init_retrieval, initialization
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Initializer, initial_estimate_of
 
@@ -59,8 +60,25 @@ class ProgressLine:
         self.bar.close()
 
 
+#: the retrieval start's settings (``InitSettings.search`` "retrieval"), left out of the cache key
+#: of an annealed start: its key stays the one computed before they existed
+RETRIEVAL_FIELDS = ("search", "retrieval_resolution", "retrieval_headings", "retrieval_keep",
+                    "retrieval_samples", "retrieval_sweeps", "retrieval_draws")
+
+
+def settings_text(settings) -> str:
+    """``repr(settings)``, less the fields of :data:`RETRIEVAL_FIELDS` where ``settings.search`` is
+    "anneal" (the dataclass's own format, so an annealed start's key is the one without them)."""
+    if getattr(settings, "search", None) != "anneal" or not dataclasses.is_dataclass(settings):
+        return repr(settings)
+    kept = (f"{f.name}={getattr(settings, f.name)!r}" for f in dataclasses.fields(settings)
+            if f.repr and f.name not in RETRIEVAL_FIELDS)
+    return f"{type(settings).__qualname__}({', '.join(kept)})"
+
+
 class SilhouetteStart:
-    """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`) of
+    """Shape and pose from one frame's silhouettes (:func:`initialize_from_silhouettes`, or with
+    ``settings.search`` "retrieval" :func:`~mocap.trackers.init_retrieval.initialize_by_retrieval`) of
     ``body`` seen by ``rig``, with ``settings`` (:class:`InitSettings`) drawing from ``rng``;
     ``library``: poses (T, D) its limb hypotheses draw from (the hybrid's motion library).
     info: seconds, the hypotheses and margin, ``initializer_version``.
@@ -77,9 +95,11 @@ class SilhouetteStart:
         t = time.perf_counter()
         line = ProgressLine("silhouette start-up") if self.progress is None else None
         try:
-            chi, alpha, diag = initialization.initialize_from_silhouettes(
-                self.body, self.rig, frame.masks, self.rng, self.settings, progress=self.progress or line,
-                library=self.library)
+            compute = (init_retrieval.initialize_by_retrieval
+                       if getattr(self.settings, "search", "anneal") == "retrieval"
+                       else initialization.initialize_from_silhouettes)
+            chi, alpha, diag = compute(self.body, self.rig, frame.masks, self.rng, self.settings,
+                                       progress=self.progress or line, library=self.library)
         finally:
             if line is not None:
                 line.close()
@@ -96,9 +116,11 @@ class SilhouetteStart:
         h.update(json.dumps([body.name, list(body.dof_names), body.num_shape]).encode())
         h.update(np.ascontiguousarray(frame.masks, dtype=bool).tobytes())
         h.update(json.dumps(rig_to_dict(self.rig), sort_keys=True, default=str).encode())
-        h.update(repr(self.settings).encode())
+        h.update(settings_text(self.settings).encode())
         h.update(f"initializer-v{initialization.INITIALIZER_VERSION}".encode())
-        if getattr(self.settings, "limb_hypotheses", 0) and self.library is not None:
+        reads_library = (getattr(self.settings, "limb_hypotheses", 0)
+                         or getattr(self.settings, "search", "anneal") == "retrieval")
+        if reads_library and self.library is not None:
             h.update(np.ascontiguousarray(self.library, dtype=np.float64).tobytes())
         h.update(json.dumps(self.rng.bit_generator.state, sort_keys=True, default=str).encode())
         return h.hexdigest()[:20]

@@ -64,6 +64,21 @@ def closest_point_to_rays(origins: np.ndarray, directions: np.ndarray) -> np.nda
     return np.linalg.solve(P.sum(axis=0), (P @ origins[..., None]).sum(axis=0))[:, 0]
 
 
+def silhouette_centre(rig: Rig, masks: np.ndarray) -> np.ndarray:
+    """The point (3,) nearest to the rays through the centroids of the masks (C, H, W) that see
+    the subject (at least 2 views, else a ValueError)."""
+    origins, dirs = [], []
+    for c, cam in enumerate(rig):
+        ys, xs = np.nonzero(masks[c])
+        if len(xs):
+            o, d = pixel_rays(cam, np.array([[xs.mean(), ys.mean()]]))
+            origins.append(o[0])
+            dirs.append(d[0])
+    if len(origins) < 2:
+        raise ValueError("silhouette initialisation needs the subject in at least 2 views")
+    return closest_point_to_rays(np.array(origins), np.array(dirs))
+
+
 def root_twist(yaw: float, x: float, y: float) -> np.ndarray:
     """Global twist of a rotation about the vertical through the origin, then a shift in x, y."""
     T = np.eye(4)
@@ -213,20 +228,14 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     ("done", 1.0) and no other at 1.0). The results do not depend on it."""
     if masks is None:
         raise ValueError("silhouette initialisation needs masks")
+    if settings.search != "anneal":
+        raise ValueError(f"setting search = {settings.search!r}: this is the annealed start; the "
+                         "retrieval start is mocap.trackers.init_retrieval.initialize_by_retrieval")
     scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
     target = silhouette_target(masks, scale, view_names=tuple(rig.names))
     small = rig.scaled(scale)
     # 1. position from the silhouette centroids
-    origins, dirs = [], []
-    for c, cam in enumerate(rig):
-        ys, xs = np.nonzero(masks[c])
-        if len(xs):
-            o, d = pixel_rays(cam, np.array([[xs.mean(), ys.mean()]]))
-            origins.append(o[0])
-            dirs.append(d[0])
-    if len(origins) < 2:
-        raise ValueError("silhouette initialisation needs the subject in at least 2 views")
-    center = closest_point_to_rays(np.array(origins), np.array(dirs))
+    center = silhouette_centre(rig, masks)
     alpha = np.zeros(body.num_shape)
     mesh = energy_mesh_for(body, settings.energy_mesh)     # None: the full mesh
     # built once, shared by every hypothesis: shaped bodies and energies per shape (and scale)

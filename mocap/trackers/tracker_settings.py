@@ -86,6 +86,16 @@ class InitSettings:
     limb_keep: int = 3
     limb_particles: int = 30
     limb_layers: int = 6
+    search: str = "anneal"        # "anneal": the annealed searches above (INITIALIZER_VERSION 3);
+                                  # "retrieval": library poses x headings scored in one batch, the
+                                  # best refined without annealing (mocap.trackers.init_retrieval;
+                                  # tried on dev, not chosen: docs/results/speed.md)
+    retrieval_resolution: int = 128   # px (longest side) of the retrieval and its refinement
+    retrieval_headings: int = 12  # headings about the vertical each library pose is tried at
+    retrieval_keep: int = 4       # retrieved headings (more than 60 deg apart) searched
+    retrieval_samples: int = 40   # proposals per partition and sweep of the coordinate search
+    retrieval_sweeps: int = 3     # sweeps of the coordinate search on the keep best candidates
+    retrieval_draws: int = 100    # uniform draws of each limb's angles beside the library's (first sweep)
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
@@ -97,6 +107,11 @@ class InitSettings:
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")
         check(self, "limb_particles", self.limb_particles >= 2, "an integer >= 2")
         check(self, "limb_stage", self.limb_stage in ("start", "end"), "'start' or 'end'")
+        check(self, "search", self.search in ("anneal", "retrieval"), "'anneal' or 'retrieval'")
+        for name in ("retrieval_resolution", "retrieval_headings", "retrieval_keep", "retrieval_sweeps"):
+            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
+        check(self, "retrieval_samples", self.retrieval_samples >= 1, "an integer >= 1")
+        check(self, "retrieval_draws", self.retrieval_draws >= 0, "an integer >= 0")
 
 
 @dataclass(frozen=True)
