@@ -17,7 +17,7 @@ from here. Build any of them from a mapping with
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from mocap.energy.weights import EnergyWeights
 from mocap.local.settings import ContourSettings, MisalignmentSettings, SiftSettings
@@ -86,6 +86,20 @@ class InitSettings:
     limb_keep: int = 3
     limb_particles: int = 30
     limb_layers: int = 6
+    shape_pose_searches: int = 0  # after everything, this many annealed searches over the pose and the
+                                  # first shape_components coefficients together, each kept where the
+                                  # fine E_S falls (:mod:`mocap.trackers.start_shape`); 0: off
+    shape_pose_particles: int = 100
+    shape_pose_layers: int = 10
+    shape_pose_pose_scale: float = 0.25  # first-layer pose spread: this times the start's pose spread
+    shape_pose_shape_std: float = 0.5    # first-layer shape spread (standardised PCA units)
+
+    def __repr__(self) -> str:
+        """The dataclass's text, without the shape-and-pose fields while that search is off: the
+        starts computed without it keep their cache keys (:mod:`mocap.trackers.init_cache`)."""
+        off = () if self.shape_pose_searches else SHAPE_POSE_FIELDS
+        text = ", ".join(f"{f.name}={getattr(self, f.name)!r}" for f in fields(self) if f.name not in off)
+        return f"{type(self).__name__}({text})"
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
@@ -97,6 +111,16 @@ class InitSettings:
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")
         check(self, "limb_particles", self.limb_particles >= 2, "an integer >= 2")
         check(self, "limb_stage", self.limb_stage in ("start", "end"), "'start' or 'end'")
+        check(self, "shape_pose_searches", self.shape_pose_searches >= 0, "an integer >= 0 (0: off)")
+        check(self, "shape_pose_particles", self.shape_pose_particles >= 2, "an integer >= 2")
+        check(self, "shape_pose_layers", self.shape_pose_layers >= 1, "an integer >= 1")
+        check(self, "shape_pose_pose_scale", self.shape_pose_pose_scale >= 0, ">= 0")
+        check(self, "shape_pose_shape_std", self.shape_pose_shape_std > 0, "> 0")
+
+
+#: InitSettings' fields of the shape-and-pose search (left out of its text while the search is off)
+SHAPE_POSE_FIELDS = ("shape_pose_searches", "shape_pose_particles", "shape_pose_layers",
+                     "shape_pose_pose_scale", "shape_pose_shape_std")
 
 
 @dataclass(frozen=True)
