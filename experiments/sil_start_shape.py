@@ -7,7 +7,7 @@ joint error (mean over the joints, mm) of the start and of the result, the shape
 The surface oracle's frame-0 E_S (the floor the search aims at) is in ``experiments.sil_start_energy``.
 
     python -m experiments.sil_start_shape data/real_motion/dev/* --init-cache outputs/init_cache \\
-        [--searches 2 --particles 100 --layers 10 --pose-scale 0.25 --shape-std 0.5 --mesh coarse] \\
+        [--searches 2 --particles 100 --layers 10 --pose-scale 0 --shape-std 0.5 --mesh full] \\
         [--out outputs/start_shape.jsonl]
 """
 
@@ -48,9 +48,10 @@ def measure(seq_path: Path, seed: int, cache: str | None, changes: dict, mesh: s
     E = StartEnergies(body, seq.rig, frame.masks, settings)
     std = np.r_[np.full(3, POSE_STD[0]), np.full(3, POSE_STD[1]), np.full(body.num_dofs - 6, POSE_STD[2])]
     t = time.perf_counter()
-    chi, alpha, report = shape_pose_step(
-        body, seq.rig.scaled(E.scale), E.target, energy_mesh_for(body, settings.energy_mesh) if mesh == "coarse"
-        else None, lambda a, c: float(E.fine(a, c)[0]), E.local, c0, a0, settings, std, copy.deepcopy(rng))
+    coarse = energy_mesh_for(body, settings.energy_mesh) if mesh == "coarse" else None
+    chi, alpha, report = shape_pose_step(body, seq.rig.scaled(E.scale), E.target, coarse,
+                                         lambda a, c: float(E.fine(a, c)[0]), E.local, c0, a0, settings, std,
+                                         copy.deepcopy(rng))
     seconds = time.perf_counter() - t
     scorer = NameScorer(body, seq.gt.person(0))
     out = {"data": seq.name, "seed": seed, "settings": changes, "mesh": mesh, "seconds": seconds,
@@ -79,9 +80,9 @@ def main(argv=None) -> None:
     p.add_argument("--searches", type=int, default=2)
     p.add_argument("--particles", type=int, default=100)
     p.add_argument("--layers", type=int, default=10)
-    p.add_argument("--pose-scale", type=float, default=0.25)
+    p.add_argument("--pose-scale", type=float, default=0.0)
     p.add_argument("--shape-std", type=float, default=0.5)
-    p.add_argument("--mesh", choices=["coarse", "full"], default="coarse")
+    p.add_argument("--mesh", choices=["coarse", "full"], default="full")
     p.add_argument("--out", type=Path)
     a = p.parse_args(argv)
     changes = {"shape_pose_searches": a.searches, "shape_pose_particles": a.particles,

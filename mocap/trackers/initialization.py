@@ -392,7 +392,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
         diag["limbs_changed_at_end"] = winner["limbs_changed"]
     if settings.shape_pose_searches > 0:      # 6. the shape searched with the pose (a copy of the
         chi, alpha, diag["shape_pose"] = shape_pose_step(     # generator: the tracking's draws unchanged)
-            body, small, target, mesh, fine_energy, local, chi, alpha, settings, std, copy.deepcopy(rng))
+            body, small, target, None, fine_energy, local, chi, alpha, settings, std, copy.deepcopy(rng))
     report.finish()
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
     # the winner's lead: over the runner-up at the end, or over a dropped one when it was dropped

@@ -100,7 +100,8 @@ def search_shape_with_pose(body: BodyModel, chi: np.ndarray, alpha: np.ndarray,
                            fine_energy: Callable[[np.ndarray, np.ndarray], float],
                            local: Callable[[np.ndarray, np.ndarray], np.ndarray],
                            components: int, pose_std: np.ndarray, shape_std: float, searches: int,
-                           apf: APFSettings, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+                           apf: APFSettings, rng: np.random.Generator
+                           ) -> tuple[np.ndarray, np.ndarray, list[dict]]:
     """``searches`` annealed searches over the pose chi (D,) and the first C = ``components``
     shape coefficients of alpha (K,) together, one after the other, each from the best so far.
 

@@ -91,7 +91,8 @@ class InitSettings:
                                   # fine E_S falls (:mod:`mocap.trackers.start_shape`); 0: off
     shape_pose_particles: int = 100
     shape_pose_layers: int = 10
-    shape_pose_pose_scale: float = 0.25  # first-layer pose spread: this times the start's pose spread
+    shape_pose_pose_scale: float = 0.0   # the pose's own first-layer spread, times the start's pose
+                                         # spread (0: the pose only follows the shape)
     shape_pose_shape_std: float = 0.5    # first-layer shape spread (standardised PCA units)
 
     def __repr__(self) -> str:
