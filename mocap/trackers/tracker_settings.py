@@ -379,11 +379,17 @@ def _hybrid_local() -> LocalStepSettings:
 #: (200 draws from the motion library, InitSettings.limb_stage "end"), chosen on the real-motion dev
 #: split (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: the start")
 HYBRID_LIMB_HYPOTHESES = 200
+#: ... and then its shape searched with the pose following it (InitSettings.shape_pose_searches), chosen on
+#: the real-motion dev split (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: shape with
+#: pose at the start")
+HYBRID_SHAPE_POSE_SEARCHES = 2
 
 
 def _hybrid_init() -> InitSettings:
-    """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew."""
-    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES)
+    """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew,
+    then its shape with its pose."""
+    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES,
+                        shape_pose_searches=HYBRID_SHAPE_POSE_SEARCHES)
 
 
 @dataclass(frozen=True)

@@ -120,6 +120,15 @@ def test_a_wrong_shape_the_pose_search_cannot_fix_is_brought_back(body):
     np.testing.assert_array_equal(shape[C:], wrong[C:])                 # only the first C searched
 
 
+def test_on_for_the_silhouette_only_hybrids_only():
+    from mocap.trackers.presets import preset_settings
+
+    assert InitSettings().shape_pose_searches == 0
+    for name in ("hybrid", "hybrid_prior", "hybrid_100x15", "hybrid_prior_real"):
+        assert preset_settings(name).initialization.shape_pose_searches > 0, name
+    assert preset_settings("hybrid_kp").initialization.shape_pose_searches == 0
+
+
 def test_off_by_default_and_the_cache_key_changes_only_when_on():
     """The settings' text (the init cache's key) is the old one while the search is off, whatever
     its other fields, and names them when it is on."""
