@@ -64,15 +64,24 @@ class ProgressLine:
 #: of an annealed start: its key stays the one computed before they existed
 RETRIEVAL_FIELDS = ("search", "retrieval_resolution", "retrieval_headings", "retrieval_keep",
                     "retrieval_samples", "retrieval_sweeps", "retrieval_draws")
+#: the shape-and-pose step's settings (:mod:`mocap.trackers.start_shape`), left out of the cache
+#: key while it is off (``shape_pose_searches`` 0): the starts computed without it keep their keys
+SHAPE_POSE_FIELDS = ("shape_pose_searches", "shape_pose_particles", "shape_pose_layers",
+                     "shape_pose_pose_scale", "shape_pose_shape_std")
 
 
 def settings_text(settings) -> str:
-    """``repr(settings)``, less the fields of :data:`RETRIEVAL_FIELDS` where ``settings.search`` is
-    "anneal" (the dataclass's own format, so an annealed start's key is the one without them)."""
-    if getattr(settings, "search", None) != "anneal" or not dataclasses.is_dataclass(settings):
+    """``repr(settings)``, less the fields of the optional steps that are off: those of
+    :data:`RETRIEVAL_FIELDS` where ``settings.search`` is "anneal" and those of
+    :data:`SHAPE_POSE_FIELDS` where ``settings.shape_pose_searches`` is 0 (the dataclass's own
+    format, so a start's key is the one computed before those fields existed)."""
+    if not dataclasses.is_dataclass(settings):
         return repr(settings)
+    off = set(RETRIEVAL_FIELDS) if getattr(settings, "search", None) == "anneal" else set()
+    if getattr(settings, "shape_pose_searches", None) == 0:
+        off |= set(SHAPE_POSE_FIELDS)
     kept = (f"{f.name}={getattr(settings, f.name)!r}" for f in dataclasses.fields(settings)
-            if f.repr and f.name not in RETRIEVAL_FIELDS)
+            if f.repr and f.name not in off)
     return f"{type(settings).__qualname__}({', '.join(kept)})"
 
 

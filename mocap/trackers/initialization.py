@@ -24,6 +24,10 @@ No ground truth is used. Starting from the mean body:
    lowest fine E_S wins. After every round but the last, a kept hypothesis whose fine E_S is
    more than ``prune_margin`` (relative) above the best one's is dropped: where the margin is
    large the loser's remaining rounds are not spent.
+6. with ``shape_pose_searches`` > 0, the winner's pose and first shape coefficients searched
+   together (:mod:`mocap.trackers.start_shape`: where the silhouettes want another shape with
+   another pose, the alternating rounds move neither), kept where the fine E_S falls; it draws
+   from a copy of the generator, so what follows the start draws the same numbers as without.
 The pose searches (heading search aside) score E_S on the energy mesh (``energy_mesh``
 triangles, :mod:`mocap.body.energy_mesh`, as the silhouette APFs do); the shape searches and
 the fine E_S that ranks hypotheses keep the full mesh (the shape changes the whole surface,
@@ -38,6 +42,7 @@ hypothesis, its lead when that was dropped).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 
 import numpy as np
@@ -51,6 +56,7 @@ from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
 from mocap.trackers.apf import run_apf
 from mocap.trackers.shape_search import shape_energy, shifted  # noqa: F401  (shifted re-exported)
+from mocap.trackers.start_shape import shape_pose_step
 from mocap.trackers.tracker_settings import APFSettings, InitSettings
 
 #: raised with every change of what :func:`initialize_from_silhouettes` computes from the same
@@ -393,6 +399,9 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
         winner = {}
         chi = limb_scan(alpha, chi, winner)
         diag["limbs_changed_at_end"] = winner["limbs_changed"]
+    if settings.shape_pose_searches > 0:      # 6. the shape searched with the pose (a copy of the
+        chi, alpha, diag["shape_pose"] = shape_pose_step(     # generator: the tracking's draws unchanged)
+            body, small, target, None, fine_energy, local, chi, alpha, settings, std, copy.deepcopy(rng))
     report.finish()
     diag["hypotheses"] = [{k: v for k, v in h.items() if k != "chi"} for h in hypotheses]
     # the winner's lead: over the runner-up at the end, or over a dropped one when it was dropped

@@ -96,6 +96,14 @@ class InitSettings:
     retrieval_samples: int = 40   # proposals per partition and sweep of the coordinate search
     retrieval_sweeps: int = 3     # sweeps of the coordinate search on the keep best candidates
     retrieval_draws: int = 100    # uniform draws of each limb's angles beside the library's (first sweep)
+    shape_pose_searches: int = 0  # after everything, this many annealed searches over the pose and the
+                                  # first shape_components coefficients together, each kept where the
+                                  # fine E_S falls (:mod:`mocap.trackers.start_shape`); 0: off
+    shape_pose_particles: int = 100
+    shape_pose_layers: int = 10
+    shape_pose_pose_scale: float = 0.0   # the pose's own first-layer spread, times the start's pose
+                                         # spread (0: the pose only follows the shape)
+    shape_pose_shape_std: float = 0.5    # first-layer shape spread (standardised PCA units)
 
     def __post_init__(self):
         check(self, "energy_mesh", self.energy_mesh is None or self.energy_mesh >= 4,
@@ -112,6 +120,11 @@ class InitSettings:
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")
         check(self, "retrieval_samples", self.retrieval_samples >= 1, "an integer >= 1")
         check(self, "retrieval_draws", self.retrieval_draws >= 0, "an integer >= 0")
+        check(self, "shape_pose_searches", self.shape_pose_searches >= 0, "an integer >= 0 (0: off)")
+        check(self, "shape_pose_particles", self.shape_pose_particles >= 2, "an integer >= 2")
+        check(self, "shape_pose_layers", self.shape_pose_layers >= 1, "an integer >= 1")
+        check(self, "shape_pose_pose_scale", self.shape_pose_pose_scale >= 0, ">= 0")
+        check(self, "shape_pose_shape_std", self.shape_pose_shape_std > 0, "> 0")
 
 
 @dataclass(frozen=True)
@@ -369,11 +382,17 @@ def _hybrid_local() -> LocalStepSettings:
 #: (200 draws from the motion library, InitSettings.limb_stage "end"), chosen on the real-motion dev
 #: split (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: the start")
 HYBRID_LIMB_HYPOTHESES = 200
+#: ... and then its shape searched with the pose following it (InitSettings.shape_pose_searches), chosen on
+#: the real-motion dev split (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: shape with
+#: pose at the start")
+HYBRID_SHAPE_POSE_SEARCHES = 2
 
 
 def _hybrid_init() -> InitSettings:
-    """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew."""
-    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES)
+    """The hybrid's self-initialisation: the silhouette start, then the winner's limbs searched anew,
+    then its shape with its pose."""
+    return InitSettings(limb_hypotheses=HYBRID_LIMB_HYPOTHESES,
+                        shape_pose_searches=HYBRID_SHAPE_POSE_SEARCHES)
 
 
 @dataclass(frozen=True)
