@@ -136,8 +136,11 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
     shapes = oracle_shapes(body, seq, frames, out / "shapes")
     fixed = {**shapes, "mix": mix * shapes["joint"] + (1.0 - mix) * shapes["surface"]}.get(variant)
 
+    built = []
+
     def make_tracker(**objects):
         tracker = build(cfg.tracker, **objects)
+        built.append(tracker)
         if variant != "base":
             inner = tracker.refine_initial
 
@@ -149,7 +152,9 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
 
     def extra(metrics, result, body, seq):
         name = f"mix {mix:g}" if variant == "mix" else variant
-        return {"shape_split": {"variant": name, "sets": sets, **breakdown(body, seq, result, shapes)}}
+        two_cue = getattr(built[-1], "two_cue", None) if built else None
+        return {"shape_split": {"variant": name, "sets": sets, **breakdown(body, seq, result, shapes),
+                                **({"two_cue": two_cue.reports} if two_cue is not None else {})}}
 
     folder = out / (f"mix{mix:g}" if variant == "mix" else variant) / f"real_{data}"
     metrics = run_tracking(folder, plain(cfg), make_body=lambda: body, make_sequence=lambda b: seq,

@@ -165,7 +165,8 @@ class TwoCueShape:
     ``particles`` x ``layers``: the annealed search over the coefficients and a shared
     ``shift`` (m) of the body, first-layer spread ``std`` (in the keypoints' posterior standard
     deviations: :meth:`~mocap.trackers.two_cue_shape.LengthEvidence.posterior_root`), on silhouettes
-    at ``resolution`` px (longest image side)."""
+    at ``resolution`` px (longest image side), then at most ``polish`` energy evaluations of
+    Powell's method from its result (0: none)."""
 
     frames: int = 0
     every: int = 0
@@ -178,9 +179,11 @@ class TwoCueShape:
     std: float = 1.0
     shift: float = 0.02
     resolution: int = 256
+    polish: int = 400
 
     def __post_init__(self) -> None:
         check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
+        check(self, "polish", self.polish >= 0, "an integer >= 0 evaluations (0: none)")
         check(self, "every", self.every >= 0, "an integer >= 0 (0: once)")
         for name in ("keyframes", "components", "layers", "resolution"):
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")

@@ -19,8 +19,10 @@ coefficients and a shared shift of the body:
 - ``E_S,fv``: the silhouette energy (a mean distance, px) of view v of keyframe f, divided by its
   value at the current shape (its residual scale: a Laplace likelihood's scale), each view
   counted as ``view_samples`` = w independent samples;
-- the search: the annealed particle filter (:func:`~mocap.trackers.apf.run_apf`) from the best of
-  the current shape, the keypoints' own fit and the point halfway.
+- the search: in the coordinates of the keypoints' posterior (each unit one standard deviation
+  the bone lengths and the prior leave, :meth:`LengthEvidence.posterior_root`), the annealed
+  particle filter (:func:`~mocap.trackers.apf.run_apf`) from the best of the current shape, the
+  keypoints' own fit and the point halfway, then Powell's line searches (scipy) from its result.
 
 Each term's minimum is a different shape; their sum puts the shape where the directions each
 cue measures are met by that cue (the keypoints' bone lengths, the silhouettes' girth) rather
@@ -33,6 +35,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize
 
 from mocap.body.bone_lengths import length_model, shrink_to_bounds, skeleton_length_model
 from mocap.body.catalogue import rest_point_basis, rigid_pairs
@@ -245,6 +248,12 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
     z, _ = run_apf(searched, np.clip(z0, limits[:, 0], limits[:, 1]), std, limits, apf, rng)
     if searched(z)[0] > searched(z0)[0]:
         z = z0
+    if settings.polish:
+        found = minimize(lambda v: float(searched(v)[0]), z, method="Powell",
+                         bounds=list(map(tuple, limits)),
+                         options={"maxfev": settings.polish, "xtol": 1e-2, "ftol": 1e-4})
+        if found.fun < searched(z)[0]:
+            z = found.x
     x = shape_of(z)[0]
     x0 = np.r_[alpha[:C], zero]
     new = full(x)[0]
