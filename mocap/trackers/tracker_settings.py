@@ -156,8 +156,9 @@ class TwoCueShape:
     refit (``shape_frames``) and the silhouette-only refinements (``local.shape``).
     ``frames``: tracked frames before the first fit (0: off); ``every``: frames between later
     fits over everything seen so far (0: once); ``keyframes``: at most this many of the frames
-    whose misalignment check flagged nothing, evenly spaced, carry the silhouette term (poses
-    held as tracked); ``components``: shape coefficients fitted (the others held);
+    whose misalignment check flagged nothing (``aligned_only``; off: of every frame, a flagged
+    one with its repaired pose), evenly spaced, carry the silhouette term (poses held as
+    tracked); ``components``: shape coefficients fitted (the others held);
     ``view_samples``: the independent samples one view's silhouette counts as against one
     frame's bone length (the silhouettes' evidence; each view's energy is divided by its value
     at the current shape, its residual scale; the bone lengths by their spread over frames);
@@ -171,6 +172,7 @@ class TwoCueShape:
     frames: int = 0
     every: int = 0
     keyframes: int = 8
+    aligned_only: bool = True
     components: int = 10
     view_samples: float = 1.0
     length_floor: float = 0.005

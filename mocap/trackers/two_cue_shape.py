@@ -277,7 +277,8 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
 
 class TwoCueState:
     """The frames a tracker keeps for :func:`fit_two_cue_shape`: every frame's triangulated
-    landmarks (L, 3) and the poses and masks of the frames whose check flagged nothing."""
+    landmarks (L, 3) and the poses and masks of the frames whose check flagged nothing (with
+    ``aligned_only`` off: of every frame, the repaired pose of a flagged one)."""
 
     def __init__(self, settings: TwoCueShape):
         self.settings = settings
@@ -289,7 +290,7 @@ class TwoCueState:
     def add(self, index: int, chi: np.ndarray, masks: np.ndarray | None, measured: np.ndarray,
             aligned: bool) -> None:
         self.measured.append(np.asarray(measured, np.float64))
-        if aligned and masks is not None:
+        if (aligned or not self.settings.aligned_only) and masks is not None:
             self.keyframes.append((int(index), np.asarray(chi, np.float64), masks))
 
     def due(self) -> bool:

@@ -120,10 +120,10 @@ def test_the_state_fits_once_after_its_frames_or_every_k(body):
 
 
 def test_the_hybrid_fits_the_shape_once_after_its_frames(body):
-    """With ``two_cue.frames`` 3 (frame 0 from the start-up, then frames 1-2) the shape changes at
-    frame 3 and not after (the 3-frame keypoint refit, ``shape_frames`` 3 here, and the
-    silhouette-only refinements are off), its report kept; the frames before are those of the
-    run without it, bit for bit."""
+    """With ``two_cue.frames`` 3 (frame 0 from the start-up, then frames 1-2; ``hybrid_kp``'s is
+    15) the shape changes at frame 3 and not after (the 3-frame keypoint refit, ``shape_frames``
+    3 here, and the silhouette-only refinements are off), its report kept; the frames before are
+    those of the run without it, bit for bit."""
     seq = keypoint_walk(body, 6)
 
     def run(**two_cue):
@@ -138,7 +138,7 @@ def test_the_hybrid_fits_the_shape_once_after_its_frames(body):
     assert changed.tolist() == [3]
     report = t_on.two_cue.reports
     assert len(report) == 1 and report[0]["frames"] == 3 and 1 <= report[0]["keyframes"] <= 3
-    t_off, off = run()
+    t_off, off = run(frames=0)
     assert t_off.two_cue is None
     for a, b in zip(on[:3], off[:3], strict=True):
         assert np.array_equal(a.chi, b.chi) and np.array_equal(a.alpha, b.alpha)
