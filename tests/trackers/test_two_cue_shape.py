@@ -106,7 +106,7 @@ def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
 
 def test_the_state_fits_once_after_its_frames_or_every_k(body):
     """``frames`` frames in: the first fit; then every ``every`` (0: never again); keyframes are
-    the aligned frames, evenly spaced down to ``keyframes``."""
+    the aligned frames (every frame with ``aligned_only`` off), evenly spaced down to ``keyframes``."""
     once, again = TwoCueState(TwoCueShape(frames=3, keyframes=2)), TwoCueState(TwoCueShape(frames=3, every=2))
     due = {id(once): [], id(again): []}
     for f in range(9):
@@ -117,6 +117,10 @@ def test_the_state_fits_once_after_its_frames_or_every_k(body):
             s.add(f, np.zeros(3), np.zeros((1, 2, 2), bool), np.zeros((4, 3)), aligned=f != 4)
     assert due[id(once)] == [3] and due[id(again)] == [3, 5, 7]
     assert [k[0] for k in once.chosen()] == [0, 8] and len(once.keyframes) == 8
+    every = TwoCueState(TwoCueShape(frames=3, keyframes=3, aligned_only=False))
+    for f in range(9):
+        every.add(f, np.zeros(3), np.zeros((1, 2, 2), bool), np.zeros((4, 3)), aligned=f % 2 == 0)
+    assert [k[0] for k in every.chosen()] == [0, 4, 8] and len(every.keyframes) == 9
 
 
 def test_the_hybrid_fits_the_shape_once_after_its_frames(body):
