@@ -136,8 +136,11 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
     shapes = oracle_shapes(body, seq, frames, out / "shapes")
     fixed = {**shapes, "mix": mix * shapes["joint"] + (1.0 - mix) * shapes["surface"]}.get(variant)
 
+    built = []
+
     def make_tracker(**objects):
         tracker = build(cfg.tracker, **objects)
+        built.append(tracker)
         if variant != "base":
             inner = tracker.refine_initial
 
@@ -149,7 +152,9 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
 
     def extra(metrics, result, body, seq):
         name = f"mix {mix:g}" if variant == "mix" else variant
-        return {"shape_split": {"variant": name, "sets": sets, **breakdown(body, seq, result, shapes)}}
+        two_cue = getattr(built[-1], "two_cue", None) if built else None
+        return {"shape_split": {"variant": name, "sets": sets, **breakdown(body, seq, result, shapes),
+                                **({"two_cue": two_cue.reports} if two_cue is not None else {})}}
 
     folder = out / (f"mix{mix:g}" if variant == "mix" else variant) / f"real_{data}"
     metrics = run_tracking(folder, plain(cfg), make_body=lambda: body, make_sequence=lambda b: seq,
@@ -227,6 +232,40 @@ def report(out: Path, noise: bool = False) -> str:
     return "\n".join(lines + [""] + detail)
 
 
+def rule_table(out: Path, surface_tolerance: float = 0.02) -> str:
+    """Every ``--tag`` candidate under ``out`` (``out/<tag>/base/<data>``) against ``hybrid_kp`` as it
+    is (``out/base/<data>``), by the choice rule (docs/results/surface.md, "Shape or pose"): on
+    every sequence run, joints lower and surface (true -> tracked mean) not higher by more than
+    ``surface_tolerance``, no frame lost; the score: the mean of joints / base + surface / base."""
+    def load(folder: Path) -> dict:
+        return {p.parent.name: json.loads(p.read_text()) for p in sorted(folder.glob("*/metrics.json"))}
+
+    base = load(out / "base")
+    seqs = list(base)
+    lines = ["| candidate | " + " | ".join(d.removeprefix("real_") for d in seqs) + " | passes | score |",
+             "|---|" + "---|" * (len(seqs) + 2)]
+    lines.append("| `hybrid_kp` as it is | " + " | ".join(
+        f"{base[d]['mpjpe_mm']:.2f} / {base[d]['surface_to_mesh_mm']:.2f}" for d in seqs) + " | | |")
+    for tag in sorted(p.parent.name for p in out.glob("*/base")):
+        runs = load(out / tag / "base")
+        cells, ok, score = [], bool(runs), []
+        for d in seqs:
+            if d not in runs:
+                cells.append("-")
+                continue
+            m, b = runs[d], base[d]
+            dj, ds = m["mpjpe_mm"] - b["mpjpe_mm"], m["surface_to_mesh_mm"] / b["surface_to_mesh_mm"] - 1
+            ok = ok and dj < 0 and ds <= surface_tolerance and not m.get("frames_lost", 0)
+            score.append(m["mpjpe_mm"] / b["mpjpe_mm"] + m["surface_to_mesh_mm"] / b["surface_to_mesh_mm"])
+            lost = f", lost {m['frames_lost']}" if m.get("frames_lost", 0) else ""
+            cells.append(f"{m['mpjpe_mm']:.2f} ({dj:+.2f}) / {m['surface_to_mesh_mm']:.2f} "
+                         f"({100 * ds:+.1f} %){lost}")
+        mean = f"{np.mean(score):.4f}" if score else "-"
+        lines.append(f"| {tag} | " + " | ".join(cells) + f" | {'yes' if ok else 'no'}"
+                     f"{'' if len(runs) == len(seqs) else ' (so far)'} | {mean} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("sequences", nargs="*", help="dev sequence folder names (data/real_motion/dev/...)")
@@ -240,11 +279,16 @@ def main(argv=None) -> None:
     p.add_argument("--out", type=Path, default=Path("multirun/kp_split"))
     p.add_argument("--tag", default="", help="suffix of the variants' folders (a --set candidate)")
     p.add_argument("--report", type=Path, help="print the table of a finished --out folder and stop")
+    p.add_argument("--rule", type=Path, help="print every --tag candidate of a finished --out folder against "
+                   "its base runs by the choice rule and stop")
     p.add_argument("--noise", action="store_true", help="with --report: the offset-removed error's slow part "
                    "and jitter per run (reads motion.npz)")
     a = p.parse_args(argv)
     if a.report:
         print(report(a.report, a.noise))
+        return
+    if a.rule:
+        print(rule_table(a.rule))
         return
     for kv in a.set:
         yaml.safe_load(kv.split("=", 1)[1])                 # a bad value fails before any work

@@ -36,8 +36,10 @@ from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
+from mocap.trackers.shape_search import shifted
 from mocap.trackers.silhouette_tracker import diffusion_std, internal_scale
 from mocap.trackers.tracker_settings import HybridSettings
+from mocap.trackers.two_cue_shape import TwoCueState, fit_two_cue_shape
 
 
 def restart_fraction(value: float) -> float:
@@ -132,6 +134,8 @@ class HybridTracker(LocalTracker):
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
         self.shape_prior: np.ndarray | None = None      # the silhouettes' shape, the keypoint fits' prior
         self.shape_moved = False         # a silhouette shape refinement was kept since the last keypoint fit
+        two_cue = settings.keypoints.two_cue
+        self.two_cue = TwoCueState(two_cue) if self.cue is not None and two_cue.enabled else None
 
     @property
     def budget(self) -> SearchBudget:
@@ -187,6 +191,8 @@ class HybridTracker(LocalTracker):
         chi, after, _ = self.search_chains(frame, chi, lambda poses: self.two_cue_energy(frame, obs, poses),
                                            obs, extra=self.keypoint_lines(obs))
         report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
+        if self.two_cue is not None:
+            self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), True)
         return chi, np.asarray(self.shaped.alpha, np.float64), report
 
     def search_start(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray
@@ -277,7 +283,7 @@ class HybridTracker(LocalTracker):
         ``keypoints.shape_follow`` the prior is centred on the current shape, and the fit is made
         again (to all frames so far) after every kept silhouette shape refinement."""
         cue = self.cue
-        if cue is None or cue.settings.shape_frames < 2:
+        if cue is None or cue.settings.shape_frames < 2 or self.two_cue is not None:
             return None
         n, follow = len(cue.shape_samples), cue.settings.shape_follow
         first = self.shape_prior is not None and n == cue.settings.shape_frames
@@ -290,6 +296,37 @@ class HybridTracker(LocalTracker):
         self.set_shape(alpha)
         return report
 
+    def fit_two_cue(self) -> dict | None:
+        """With ``keypoints.two_cue`` on, once its ``frames`` frames are tracked (and every
+        ``every`` frames after), the shape fitted to both cues over the frames so far
+        (:func:`~mocap.trackers.two_cue_shape.fit_two_cue_shape`, poses held), the history moved
+        by the shift that came with it; its report (None: not this frame)."""
+        state = self.two_cue
+        if state is None or self.cue.landmarks is None or not state.due():
+            return None
+        chosen = state.chosen()
+        chis = np.stack([c for _, c, _ in chosen]) if chosen else np.zeros((0, self.body.num_dofs))
+        found = fit_two_cue_shape(self.body, self.rig, self.cue.landmarks, np.asarray(self.shaped.alpha),
+                                  np.stack(state.measured), chis, [m for _, _, m in chosen],
+                                  state.settings, self.init_rng)
+        state.fits += 1
+        state.reports.append({"frame": len(state.measured), **found.report})
+        self.set_shape(found.alpha)
+
+        def move(c):
+            return shifted(c, found.shift)
+
+        self.history = [move(c) for c in self.history]
+        state.shifted(move)
+        return found.report
+
+    def refine_shape(self, frame: Frame, chi: np.ndarray, aligned: bool = True):
+        """The silhouette-only refinement (:meth:`LocalTracker.refine_shape`), off where the
+        two-cue fit (``keypoints.two_cue``) takes its place."""
+        if self.two_cue is not None:
+            return chi, None
+        return super().refine_shape(frame, chi, aligned)
+
     def set_shape(self, alpha: np.ndarray) -> None:
         super().set_shape(alpha)
         self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale, mesh=self.energy_mesh)
@@ -300,6 +337,7 @@ class HybridTracker(LocalTracker):
         t0 = time.perf_counter()
         obs = self.cue.observe(frame) if self.cue is not None else None
         self.refit_shape()
+        self.fit_two_cue()
         predicted = predict_constant_velocity(self.history[-2:], self.prediction_damping)
         chi, local = self.local_step(frame, predicted, extra=self.keypoint_lines(obs))
         t1 = time.perf_counter()
@@ -350,6 +388,8 @@ class HybridTracker(LocalTracker):
         self.shape_moved = self.shape_moved or bool(shape is not None and shape.accepted)
         if obs is not None:
             self.cue.learn_offsets(self.shaped, chi, obs)
+            if self.two_cue is not None:
+                self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), not check.names)
             ks = self.cue.settings
             if ((self.shape_prior is not None and len(self.cue.shape_samples) < ks.shape_frames)
                     or (ks.shape_follow and ks.shape_std > 0 and ks.shape_frames > 1)):

@@ -142,9 +142,13 @@ class KeypointCue:
             report["flag"] = flag
         return fitted, report
 
+    def triangulated(self, obs: MarkerObservation) -> np.ndarray:
+        """(L, 3) this frame's landmarks triangulated robustly, world metres (NaN: too few views)."""
+        return triangulate_candidates(self.pinhole, obs, self.gate_px)[0]
+
     def add_shape_sample(self, obs: MarkerObservation) -> int:
         """Triangulate this frame's keypoints for :meth:`shape_over_frames`; the samples so far."""
-        self.shape_samples.append(triangulate_candidates(self.pinhole, obs, self.gate_px)[0])
+        self.shape_samples.append(self.triangulated(obs))
         return len(self.shape_samples)
 
     def shape_over_frames(self, prior_mean: np.ndarray) -> tuple[np.ndarray, dict]:

@@ -16,7 +16,13 @@ from typing import Any
 
 from mocap.settings import with_overrides
 from mocap.trackers.markers.settings import MarkerPeopleSettings, MarkerSettings
-from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, InitSettings, LocalSettings
+from mocap.trackers.tracker_settings import (
+    APFTrackerSettings,
+    HybridSettings,
+    InitSettings,
+    LocalSettings,
+    TwoCueShape,
+)
 
 #: each tracker config's settings dataclass, whose defaults are the config's defaults
 SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSettings,
@@ -43,11 +49,20 @@ KEYPOINT_SHAPE_STD = 1.5
 #: the frames whose triangulated keypoints' median bone lengths the shape is fitted to again
 #: (issue 34, chosen on the same dev split among 1 and 15: docs/results/surface.md, "accuracy push")
 KEYPOINT_SHAPE_FRAMES = 15
+#: its shape fitted once, after that many frames, to both cues at once (keypoints.two_cue, in place of
+#: that refit and the silhouette-only refinements), every one of those frames in the silhouette term,
+#: each view counted as this many samples: chosen on the same dev split among 9 variants (view samples
+#: 2 to 128, aligned frames only or all; issue 34: docs/results/surface.md, "Two-cue shape over many
+#: frames")
+TWO_CUE_VIEW_SAMPLES = 16.0
+_TWO_CUE = TwoCueShape(frames=KEYPOINT_SHAPE_FRAMES, keyframes=KEYPOINT_SHAPE_FRAMES, aligned_only=False,
+                       view_samples=TWO_CUE_VIEW_SAMPLES)
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
                      keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
-                                       shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES))
+                                       shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES,
+                                       two_cue=_TWO_CUE))
 
 #: the real-motion prior's weight, chosen on the real-motion benchmark's dev split
 #: (docs/results/real_motion.md): its narrow sigma makes -log p steep

@@ -178,6 +178,57 @@ class OffsetLearning:
 
 
 @dataclass(frozen=True)
+class TwoCueShape:
+    """The two-cue hybrid's shape fitted once (or every ``every`` frames) over many tracked frames
+    to both cues at once (:mod:`mocap.trackers.two_cue_shape`), in place of the 15-frame keypoint
+    refit (``shape_frames``) and the silhouette-only refinements (``local.shape``).
+    ``frames``: tracked frames before the first fit (0: off); ``every``: frames between later
+    fits over everything seen so far (0: once); ``keyframes``: at most this many of the frames
+    whose misalignment check flagged nothing (``aligned_only``; off: of every frame, a flagged
+    one with its repaired pose), evenly spaced, carry the silhouette term (poses held as
+    tracked); ``components``: shape coefficients fitted (the others held);
+    ``view_samples``: the independent samples one view's silhouette counts as against one
+    frame's bone length (the silhouettes' evidence; each view's energy is divided by its value
+    at the current shape, its residual scale; the bone lengths by their spread over frames);
+    ``length_floor``: the least per-frame spread (m) a bone length is credited with;
+    ``particles`` x ``layers``: the annealed search over the coefficients and a shared
+    ``shift`` (m) of the body, first-layer spread ``std`` (in the keypoints' posterior standard
+    deviations: :meth:`~mocap.trackers.two_cue_shape.LengthEvidence.posterior_root`), on silhouettes
+    at ``resolution`` px (longest image side), then at most ``polish`` energy evaluations of
+    Powell's method from its result (0: none)."""
+
+    frames: int = 0
+    every: int = 0
+    keyframes: int = 8
+    aligned_only: bool = True
+    components: int = 10
+    view_samples: float = 1.0
+    length_floor: float = 0.005
+    particles: int = 40
+    layers: int = 8
+    std: float = 1.0
+    shift: float = 0.02
+    resolution: int = 256
+    polish: int = 400
+
+    def __post_init__(self) -> None:
+        check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
+        check(self, "polish", self.polish >= 0, "an integer >= 0 evaluations (0: none)")
+        check(self, "every", self.every >= 0, "an integer >= 0 (0: once)")
+        for name in ("keyframes", "components", "layers", "resolution"):
+            check(self, name, getattr(self, name) >= 1, "an integer >= 1")
+        check(self, "particles", self.particles >= 2, "an integer >= 2")
+        check(self, "view_samples", self.view_samples >= 0, ">= 0 (0: the keypoints alone)")
+        check(self, "length_floor", self.length_floor > 0, "> 0 m")
+        check(self, "std", self.std > 0, "> 0")
+        check(self, "shift", self.shift >= 0, ">= 0 m")
+
+    @property
+    def enabled(self) -> bool:
+        return self.frames > 0
+
+
+@dataclass(frozen=True)
 class KeypointSettings:
     """The hybrid's keypoint cue (module docstring): ``weight`` of one keypoint correspondence
     against one contour correspondence in the local optimiser (0: the cue is off, today's
@@ -200,7 +251,8 @@ class KeypointSettings:
     start's, and after every silhouette shape refinement that was kept (``local.shape.every``)
     the shape is fitted again the same way to the median of all frames so far: each cue corrects
     the other while tracking. Silhouettes measure the body's outline, keypoints its bone lengths,
-    which the outline hardly constrains."""
+    which the outline hardly constrains. ``two_cue``: one fit of the shape to both cues over many
+    frames (:class:`TwoCueShape`; off by default)."""
 
     weight: float = 0.0
     energy: float = 1.0
@@ -214,6 +266,7 @@ class KeypointSettings:
     shape_std: float = 0.0
     shape_frames: int = 1
     shape_follow: bool = False
+    two_cue: TwoCueShape = TwoCueShape()
 
     def __post_init__(self) -> None:
         check(self, "weight", self.weight >= 0, ">= 0 (0: no keypoint cue)")

@@ -77,7 +77,7 @@ def run(body, seq, **keypoints):
     """Start-up refinement (with its keypoint shape fit) from the true pose and the mean shape,
     then 6 frames."""
     t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST,
-                     keypoints={"shape_std": 1.0, "init": True, **keypoints})
+                     keypoints={"shape_std": 1.0, "init": True, "two_cue": {"frames": 0}, **keypoints})
     chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
     return track_sequence(t, seq, chi, alpha).estimates
 
@@ -100,7 +100,8 @@ def test_following_refits_on_the_current_shape_after_a_kept_silhouette_refinemen
     only; once a silhouette refinement is kept, the next refit is the fit to all 6 frames' median
     lengths with the prior centred on the current shape (not the start's), made once."""
     t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST,
-                     keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3, "shape_follow": True})
+                     keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3, "shape_follow": True,
+                                "two_cue": {"frames": 0}})
     chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
     assert shape_changes(track_sequence(t, seq, chi, alpha).estimates) == [3]
     assert len(t.cue.shape_samples) == 6
@@ -117,7 +118,7 @@ def test_following_refits_on_the_current_shape_after_a_kept_silhouette_refinemen
 
 def test_without_following_only_the_first_frames_keypoints_are_kept(body, seq):
     t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST,
-                     keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3})
+                     keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3, "two_cue": {"frames": 0}})
     chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
     track_sequence(t, seq, chi, alpha)
     assert len(t.cue.shape_samples) == 3
