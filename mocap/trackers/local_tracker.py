@@ -23,7 +23,8 @@ from mocap.trackers.contract import Needs, OnePerson
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.init_cache import SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
-from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings
+from mocap.trackers.smoothing import smooth_track
+from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings, TrackSmoothing
 
 
 class LocalTracker(SilhouetteInitialisation, OnePerson):
@@ -64,6 +65,35 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         self.history = [chi]
         self.last_images = None
         self.keyframes: deque = deque(maxlen=self.shape_settings.keyframes)   # (index, chi, masks)
+
+    @property
+    def smoothing(self) -> TrackSmoothing:
+        """The finished track's smoothing (``tracker_settings.smoothing``; off where the settings
+        have none)."""
+        return getattr(self.tracker_settings, "smoothing", None) or TrackSmoothing()
+
+    @property
+    def revises_tracks(self) -> bool:
+        """Whether :meth:`final_tracks` changes the estimates the frames were answered with (the
+        run then records the frames from the final tracks)."""
+        return self.smoothing.enabled
+
+    def check_sequence(self, seq) -> None:
+        """As :class:`OnePerson`'s; keeps the sequence's frame rate (the smoothing's time base)."""
+        super().check_sequence(seq)
+        self.fps = float(seq.fps)
+
+    def final_tracks(self, tracks):
+        """The tracks as tracked, or with ``smoothing`` on, each person's poses smoothed
+        (:func:`mocap.trackers.smoothing.smooth_track`, at the frame rate of the sequence given
+        to :meth:`check_sequence`)."""
+        if not self.smoothing.enabled:
+            return tracks
+        fps = getattr(self, "fps", None)
+        if fps is None:
+            raise RuntimeError(f"tracker {self.name!r}: smoothing needs the frame rate: call "
+                               "check_sequence(seq) before tracking")
+        return {pid: smooth_track(t, self.body.limits, fps, self.smoothing) for pid, t in tracks.items()}
 
     def set_shape(self, alpha: np.ndarray) -> None:
         """Track on with the shape ``alpha`` (K,)."""
