@@ -49,6 +49,7 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         self.iterations, self.tolerance = settings.iterations, settings.tolerance
         self.damping = settings.damping
         self.energy_tolerance = settings.energy_tolerance
+        self.active_limits = settings.active_limits
         self.prediction_damping = settings.prediction_damping
         self.shaped = None
         self.history: list[np.ndarray] = []
@@ -167,7 +168,7 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         iterations = self.iterations if iterations is None else iterations
         chi, opt = optimize_pose(self.shaped, start, correspond, iterations, self.tolerance,
                                  self.damping, free=free, energy_tolerance=self.energy_tolerance,
-                                 extra=extra)
+                                 extra=extra, active_limits=self.active_limits)
         return chi, LocalTrace.from_optimizer(opt, sift_info)
 
     def step(self, frame: Frame) -> Estimate:

@@ -303,13 +303,17 @@ class LocalStepSettings:
     steps with Levenberg ``damping``, stopping when the pose moves less than ``tolerance`` or
     (``energy_tolerance`` > 0) when an iteration lowered the RMS point-line distance by less
     than that share; the contour and SIFT correspondences, the misalignment check and the
-    shape refinement (``shape.every``: frames between refinements, 0: off)."""
+    shape refinement (``shape.every``: frames between refinements, 0: off). ``active_limits``:
+    each linearised step is solved within the joint limits (an angle at its limit held there
+    while the others take up what it cannot give: :func:`mocap.local.solver.bounded_solve`)
+    instead of solved free and clipped after (off: the paper's step)."""
 
     iterations: int = 10
     tolerance: float = 1e-4
     damping: float = 1e-3
     prediction_damping: float = 1.0
     energy_tolerance: float = 0.0
+    active_limits: bool = False
     contour: ContourSettings = field(default_factory=ContourSettings)
     sift: SiftSettings = field(default_factory=SiftSettings)
     misalignment: MisalignmentSettings = field(default_factory=MisalignmentSettings)
