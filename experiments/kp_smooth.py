@@ -3,8 +3,7 @@ track (:mod:`mocap.trackers.smoothing`, ``tracker.smoothing.cutoff_hz``) does to
 
 The smoother acts only on the finished track (the tracker's ``final_tracks``), so a run with it on is
 its run without it, smoothed: each finished run folder's ``motion.npz`` (poses and shapes per frame) is
-smoothed at each cut-off and scored with the run's own evaluation
-(:func:`mocap.eval.run_metrics.accuracy_metrics`, the oracle cache of its config): joints, surface
+smoothed at each cut-off and scored as the run's own metrics are (:func:`score`): joints, surface
 (true -> tracked mean), frames lost, and the offset-removed error. The unsmoothed row re-scores the run
 as it is and must equal its metrics.json (checked). ``--check RUN`` compares a run made with the
 smoother on (``mocap track ... tracker.smoothing.cutoff_hz=C``) with its base run smoothed here.
@@ -37,14 +36,27 @@ def load_run(run: Path):
     return m, body, seq, np.asarray(z["chi"], np.float64), np.asarray(z["alpha"], np.float64)
 
 
-def score(body, seq, chis, alphas, oracle) -> dict:
-    """The figures compared: joints, surface, frames lost, offset-removed (mm)."""
-    from mocap.eval.run_metrics import accuracy_metrics
+def score(body, seq, chis, alphas, m: dict) -> dict:
+    """The figures compared, as the run's metrics compute them (joints by name, frames lost, the
+    offset-removed error; the surface true -> tracked mean); the oracles' from its metrics.json
+    (the same ground truth and frames). The silhouette overlap is left out (slow, not compared)."""
+    from mocap.eval.by_name import NameScorer
+    from mocap.eval.estimates import per_shape
+    from mocap.eval.mismatch import LOST_MM, mismatch_metrics
+    from mocap.eval.surface import surface_metrics
 
-    a = accuracy_metrics(body, seq, chis, alphas, oracle)
-    return {"joints": a["mpjpe_mm"], "surface": a["surface_to_mesh_mm"], "lost": a["frames_lost"],
-            "removed": a["mismatch"]["offset_removed_mm"], "oracle": a["oracle"]["raw_mm"],
-            "surface_oracle": a["surface_oracle_mm"]}
+    F = len(chis)
+    scorer = NameScorer(body, seq.gt)
+    points = scorer.points_by_shape(alphas, chis)
+    s = scorer.score(points)
+    valid = None if seq.gt.joint_valid is None else seq.gt.joint_valid[:F]
+    mm = mismatch_metrics(points, seq.gt.joint_names, seq.gt.joints[:F], valid, seq.gt.skeleton or None)
+    verts = per_shape(body, alphas, chis, lambda shaped, c: shaped.vertices(c)).astype(np.float64)
+    surf = surface_metrics(seq.gt.surface[:F], verts, body.faces, seq.gt.surface_faces)
+    return {"joints": s["mpjpe_mm"], "surface": surf["surface_to_mesh_mm"],
+            "lost": int(np.sum(np.asarray(s["per_frame_mm"][1:]) > LOST_MM)),
+            "removed": mm["offset_removed_mm"], "oracle": m["oracle"]["raw_mm"],
+            "surface_oracle": m["surface_oracle_mm"]}
 
 
 def sweep(run: Path, cutoffs: list[float], order: int) -> dict:
@@ -52,14 +64,13 @@ def sweep(run: Path, cutoffs: list[float], order: int) -> dict:
     from mocap.trackers.smoothing import TrackSmoothing, smooth_poses
 
     m, body, seq, chis, alphas = load_run(run)
-    oracle = m["config"].get("oracle")
-    out = {0.0: score(body, seq, chis, alphas, oracle)}
+    out = {0.0: score(body, seq, chis, alphas, m)}
     for key, mine in (("mpjpe_mm", "joints"), ("surface_to_mesh_mm", "surface")):
         if not np.isclose(m[key], out[0.0][mine], atol=1e-6):
             raise AssertionError(f"{run}: re-scored {mine} {out[0.0][mine]} != metrics.json {m[key]}")
     for c in cutoffs:
         smoothed = smooth_poses(chis, body.limits, seq.fps, TrackSmoothing(cutoff_hz=float(c), order=order))
-        out[float(c)] = score(body, seq, smoothed, alphas, oracle)
+        out[float(c)] = score(body, seq, smoothed, alphas, m)
     return out
 
 
