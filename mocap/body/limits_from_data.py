@@ -1,6 +1,7 @@
 """Joint limits widened from data (issue 34 item 4): where poses retargeted onto our body with wide
-bounds (:func:`mocap.clips.retarget.retarget`) go past a DOF's limit, the limit is moved out to
-take them, with a margin; a limit the data do not reach stays as it is (never narrowed), and the
+bounds (:func:`mocap.clips.retarget.retarget`) go past a DOF's limit, or come within a margin of
+it, the limit is moved out to the margin beyond them; a limit the data stay further from stays as
+it is (never narrowed), and the
 root (unbounded) is untouched. What the shipped limits leave out of the motion library's training
 poses is measured by ``experiments/joint_limits.py``."""
 

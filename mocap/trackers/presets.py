@@ -43,9 +43,14 @@ KEYPOINT_SHAPE_STD = 1.5
 #: the frames whose triangulated keypoints' median bone lengths the shape is fitted to again
 #: (issue 34, chosen on the same dev split among 1 and 15: docs/results/surface.md, "accuracy push")
 KEYPOINT_SHAPE_FRAMES = 15
+#: its local step solved within the joint limits (an angle at its limit held while the others take up
+#: what it cannot give, not clipped after the solve), chosen on the same dev split (issue 34 item 4:
+#: docs/results/surface.md, "The two-cue hybrid's pose")
+KEYPOINT_ACTIVE_LIMITS = True
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
+                     local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
                      keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
                                        shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES))
 
