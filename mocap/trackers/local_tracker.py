@@ -23,7 +23,7 @@ from mocap.trackers.contract import Needs, OnePerson
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.init_cache import SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
-from mocap.trackers.smoothing import smooth_track
+from mocap.trackers.smoothing import filter_pad, smooth_track
 from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings, TrackSmoothing
 
 
@@ -88,8 +88,9 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         """The tracks as tracked, or with ``smoothing`` on, each person's poses smoothed
         (:func:`mocap.trackers.smoothing.smooth_track`, at the frame rate of the sequence given
         to :meth:`check_sequence`)."""
-        if not self.smoothing.enabled:
-            return tracks
+        pad = filter_pad(self.smoothing.order)
+        if not self.smoothing.enabled or all(len(t) <= pad for t in tracks.values()):
+            return tracks               # off, or too short to smooth
         fps = getattr(self, "fps", None)
         if fps is None:
             raise RuntimeError(f"tracker {self.name!r}: smoothing needs the frame rate: call "

@@ -22,7 +22,14 @@ import numpy as np
 
 from mocap.trackers.tracker_settings import TrackSmoothing
 
-__all__ = ["TrackSmoothing", "continuous_quaternions", "lowpass", "smooth_poses", "smooth_track"]
+__all__ = ["TrackSmoothing", "continuous_quaternions", "filter_pad", "lowpass", "smooth_poses",
+           "smooth_track"]
+
+
+def filter_pad(order: int) -> int:
+    """Frames the filter extends each end by: 3 x (order + 1) (scipy's default); a track no longer
+    than this is left as it is."""
+    return 3 * (int(order) + 1)
 
 
 def lowpass(x: np.ndarray, cutoff_hz: float, fps: float, order: int = 4) -> np.ndarray:
@@ -37,7 +44,7 @@ def lowpass(x: np.ndarray, cutoff_hz: float, fps: float, order: int = 4) -> np.n
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"smoothing: the frame rate must be a number > 0, got {fps!r}")
     wn = float(cutoff_hz) / (0.5 * float(fps))
-    pad = 3 * (int(order) + 1)
+    pad = filter_pad(order)
     if len(x) <= pad or wn >= 1.0:
         return x.copy()
     b, a = butter(int(order), wn)

@@ -166,3 +166,22 @@ def test_smooth_track_keeps_shapes_and_diagnostics_and_orders_frames(body):
                                smooth_poses(chis, body.limits, FPS, TrackSmoothing(cutoff_hz=4.0)))
     assert all(np.array_equal(out[f].alpha, np.full(3, f)) for f in range(30))
     assert smooth_track(track, body.limits, FPS, TrackSmoothing()) is track
+
+
+def test_the_tracker_smooths_only_tracks_long_enough_and_needs_the_frame_rate(body):
+    from mocap.cameras import ring_rig
+    from mocap.trackers.base import Estimate
+    from mocap.trackers.local_tracker import LocalTracker
+
+    rig = ring_rig(4, 3.5, 1.5, 160, 120, fov_deg=45)
+    tracker = LocalTracker(body, rig, LocalSettings(smoothing=TrackSmoothing(cutoff_hz=4.0)))
+    chis = np.random.default_rng(6).normal(0, 0.01, (40, body.num_dofs))
+    short = {0: {f: Estimate(chi=chis[f], alpha=np.zeros(3)) for f in range(15)}}
+    assert tracker.final_tracks(short) is short and tracker.revises_tracks     # 15 frames: as tracked
+    long = {0: {f: Estimate(chi=chis[f], alpha=np.zeros(3)) for f in range(40)}}
+    with pytest.raises(RuntimeError, match="check_sequence"):
+        tracker.final_tracks(long)
+    tracker.fps = FPS
+    np.testing.assert_allclose(np.stack([e.chi for e in tracker.final_tracks(long)[0].values()]),
+                               smooth_poses(chis, body.limits, FPS, TrackSmoothing(cutoff_hz=4.0)))
+    assert not LocalTracker(body, rig).revises_tracks
