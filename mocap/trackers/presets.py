@@ -16,7 +16,13 @@ from typing import Any
 
 from mocap.settings import with_overrides
 from mocap.trackers.markers.settings import MarkerPeopleSettings, MarkerSettings
-from mocap.trackers.tracker_settings import APFTrackerSettings, HybridSettings, InitSettings, LocalSettings
+from mocap.trackers.tracker_settings import (
+    APFTrackerSettings,
+    HybridSettings,
+    InitSettings,
+    LocalSettings,
+    TrackSmoothing,
+)
 
 #: each tracker config's settings dataclass, whose defaults are the config's defaults
 SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSettings,
@@ -47,10 +53,14 @@ KEYPOINT_SHAPE_FRAMES = 15
 #: what it cannot give, not clipped after the solve), chosen on the same dev split (issue 34 item 4:
 #: docs/results/surface.md, "The two-cue hybrid's pose")
 KEYPOINT_ACTIVE_LIMITS = True
+#: its finished track smoothed (zero-phase 4th-order Butterworth at this cut-off, Hz), chosen on the same
+#: dev split among 2, 3, 4, 6 and 8 Hz (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid's pose")
+KEYPOINT_SMOOTHING_HZ = 4.0
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
                      local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
+                     smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),
                      keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
                                        shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES))
 
