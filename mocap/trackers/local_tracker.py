@@ -51,6 +51,7 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         self.energy_tolerance = settings.energy_tolerance
         self.active_limits = settings.active_limits
         self.prediction_damping = settings.prediction_damping
+        self.fps: float | None = None       # the sequence's frame rate (check_sequence): smoothing's
         self.shaped = None
         self.history: list[np.ndarray] = []
 
@@ -91,11 +92,10 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         pad = filter_pad(self.smoothing.order)
         if not self.smoothing.enabled or all(len(t) <= pad for t in tracks.values()):
             return tracks               # off, or too short to smooth
-        fps = getattr(self, "fps", None)
-        if fps is None:
+        if self.fps is None:
             raise RuntimeError(f"tracker {self.name!r}: smoothing needs the frame rate: call "
                                "check_sequence(seq) before tracking")
-        return {pid: smooth_track(t, self.body.limits, fps, self.smoothing) for pid, t in tracks.items()}
+        return {pid: smooth_track(t, self.body.limits, self.fps, self.smoothing) for pid, t in tracks.items()}
 
     def set_shape(self, alpha: np.ndarray) -> None:
         """Track on with the shape ``alpha`` (K,)."""
