@@ -121,7 +121,7 @@ def breakdown(body, seq, result, shapes: dict) -> dict:
 
 
 def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str], out: Path,
-                mix: float = 0.5) -> dict:
+                mix: float = 0.5, limits: Path | None = None) -> dict:
     from mocap.run_folder import run_tracking
     from mocap_cli.hydra_edge import build, compose, plain
 
@@ -132,6 +132,9 @@ def run_variant(data: str, variant: str, frames: int, seed: int, sets: list[str]
     overrides += [f"tracker.{s}" for s in sets]
     cfg = compose("track", overrides)
     body = build(cfg.body)
+    if limits is not None:          # the body's joint limits widened ({dof: [lo, hi] degrees}); the
+        for n, lim in json.loads(limits.read_text()).items():      # oracles come from their cache
+            body.limits[body.dof_index(n)] = np.deg2rad(lim)
     seq = build(cfg.data, body=body)
     shapes = oracle_shapes(body, seq, frames, out / "shapes")
     fixed = {**shapes, "mix": mix * shapes["joint"] + (1.0 - mix) * shapes["surface"]}.get(variant)
@@ -278,6 +281,8 @@ def main(argv=None) -> None:
     p.add_argument("--set", nargs="*", default=[], help="tracker overrides key=value (dotted), every variant")
     p.add_argument("--out", type=Path, default=Path("multirun/kp_split"))
     p.add_argument("--tag", default="", help="suffix of the variants' folders (a --set candidate)")
+    p.add_argument("--limits", type=Path, help="joint limits to track with, JSON {dof: [lo, hi] degrees} "
+                   "(experiments/joint_limits.py --out)")
     p.add_argument("--report", type=Path, help="print the table of a finished --out folder and stop")
     p.add_argument("--rule", type=Path, help="print every --tag candidate of a finished --out folder against "
                    "its base runs by the choice rule and stop")
@@ -295,7 +300,7 @@ def main(argv=None) -> None:
     for data in a.sequences:
         for variant in a.variants:
             m = run_variant(data, variant, a.frames, a.seed, a.set, a.out if not a.tag else a.out / a.tag,
-                            a.mix)
+                            a.mix, a.limits)
             s = m["shape_split"]
             print(f"{data} [{variant}{' ' + a.tag if a.tag else ''}] joints {m['mpjpe_mm']:.1f} mm "
                   f"({m['mpjpe_mm'] / m['oracle']['raw_mm']:.2f}x), offset-removed "

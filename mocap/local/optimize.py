@@ -20,7 +20,8 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
                   tolerance: float = 1e-4, damping: float = 1e-4, min_correspondences: int = 12,
                   free: np.ndarray | None = None,
                   energy_tolerance: float = 0.0,
-                  extra: Callable[[np.ndarray], PointLines] | None = None) -> tuple[np.ndarray, dict]:
+                  extra: Callable[[np.ndarray], PointLines] | None = None,
+                  active_limits: bool = False) -> tuple[np.ndarray, dict]:
     """Iterate: pose the body, find correspondences, solve the linearised system, update.
 
     Stops after ``iterations``, when the update is below ``tolerance`` (rad / m), or when the
@@ -30,6 +31,8 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
     whose system cannot be solved skips its update and says why in the diagnostics; the
     pose returned is always finite. ``extra``: pose (D,) -> correspondences solved beside
     ``correspond``'s (e.g. keypoints, :mod:`mocap.local.keypoints`), found anew each iteration.
+    ``active_limits``: each step solved within the joint limits
+    (:func:`~mocap.local.solver.gauss_newton_step`), not clipped to them after.
     """
     if solver.LEGACY:
         energy_tolerance = 0.0
@@ -49,7 +52,8 @@ def optimize_pose(shaped: ShapedBody, chi: np.ndarray, correspond: Correspond, i
         else:                            # the same frames compiled (mocap.local.posing)
             w, q = dof_frames_compiled(body, shaped.axes, shaped.rest_joints, chi)
         step = gauss_newton_step(body, chi, corr, w, q, damping=damping,
-                                 min_correspondences=min_correspondences, free=free)
+                                 min_correspondences=min_correspondences, free=free,
+                                 active_limits=active_limits)
         diag["iterations"] = it + 1
         diag["rms_m"].append(step.rms_before)
         if not step.ok:

@@ -153,11 +153,40 @@ def normal_equations(body: BodyModel, corr: PointLines, w: np.ndarray, q: np.nda
     return A.T @ (wt[:, None] * A), A.T @ (wt * e0), rms
 
 
+def bounded_solve(H: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  max_rounds: int | None = None) -> np.ndarray:
+    """The minimiser delta (D,) of 0.5 delta^T H delta + g^T delta (H (D, D) symmetric positive
+    definite) within the box lo <= delta <= hi (D,) (+-inf: unbounded), by block principal
+    pivoting (Judice and Pires 1994): every variable outside its bound is fixed at it, and every
+    fixed one whose gradient points back into the box is freed, until neither happens (the KKT
+    conditions hold). Without a bound reached it is the unconstrained solve; after
+    ``max_rounds`` (default 2 D + 2) without settling, the last solve clipped to the box."""
+    D = len(g)
+    at_lo, at_hi = np.zeros(D, bool), np.zeros(D, bool)
+    delta = np.zeros(D)
+    for _ in range(2 * D + 2 if max_rounds is None else max_rounds):
+        fixed = at_lo | at_hi
+        delta = np.where(at_lo, lo, np.where(at_hi, hi, 0.0))
+        f = ~fixed
+        delta[f] = np.linalg.solve(H[np.ix_(f, f)], -(g[f] + H[np.ix_(f, fixed)] @ delta[fixed]))
+        grad = H @ delta + g
+        add_lo, add_hi = f & (delta < lo), f & (delta > hi)
+        free_lo, free_hi = at_lo & (grad < 0), at_hi & (grad > 0)      # wants back inside
+        if not (add_lo.any() or add_hi.any() or free_lo.any() or free_hi.any()):
+            return delta
+        at_lo, at_hi = (at_lo & ~free_lo) | add_lo, (at_hi & ~free_hi) | add_hi
+    return np.clip(delta, lo, hi)
+
+
 def gauss_newton_step(body: BodyModel, chi: np.ndarray, corr: PointLines, w: np.ndarray,
                       q: np.ndarray, damping: float = 1e-4, min_correspondences: int = 12,
-                      max_step: float = 0.5, free: np.ndarray | None = None) -> StepResult:
+                      max_step: float = 0.5, free: np.ndarray | None = None,
+                      active_limits: bool = False) -> StepResult:
     """One linearised solve of Eq. 9. Skips the update (ok=False, with the reason) when there
-    are too few correspondences, the system is degenerate, or the result is not finite."""
+    are too few correspondences, the system is degenerate, or the result is not finite.
+    ``active_limits``: the joint angles' increments are solved within the joint limits
+    (:func:`bounded_solve`: an angle that reaches its limit is held there and the other DOFs
+    take up what it cannot give), not solved free and clipped after (the default)."""
     chi = np.asarray(chi, np.float64)
     if len(corr) < min_correspondences:
         return StepResult(chi, np.zeros_like(chi), False,
@@ -166,7 +195,14 @@ def gauss_newton_step(body: BodyModel, chi: np.ndarray, corr: PointLines, w: np.
     scale = np.maximum(np.diag(H), 1e-12)
     Hd = H + damping * np.diag(scale) + 1e-9 * np.eye(len(H))
     try:
-        delta = -np.linalg.solve(Hd, g)
+        if active_limits:
+            lo, hi = body.limits[:, 0] - chi, body.limits[:, 1] - chi
+            lo[:6], hi[:6] = -np.inf, np.inf
+            if free is not None:            # DOFs held: no increment
+                lo, hi = np.where(free, lo, 0.0), np.where(free, hi, 0.0)
+            delta = bounded_solve(Hd, g, np.minimum(lo, 0.0), np.maximum(hi, 0.0))
+        else:
+            delta = -np.linalg.solve(Hd, g)
     except np.linalg.LinAlgError:
         return StepResult(chi, np.zeros_like(chi), False, "singular normal equations", rms)
     if not np.all(np.isfinite(delta)):

@@ -229,13 +229,21 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
     record = (_people_recorder if tracker.several_people else _person_recorder)(body, seq, sink, p.scorer)
     start_seconds = float(p.init_info.get("seconds", 0.0))
     t0 = time.perf_counter()
+    # a tracker whose final tracks revise the frames' answers (a smoothed track) is recorded from
+    # them once tracking ends, so that the recording, motion.npz and metrics hold one track
+    later = bool(getattr(p.stepped, "revises_tracks", False))
     with run_attempt(out_dir, sink):
         with tqdm(total=p.frames, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
             def on_frame(f, out, step_seconds):
-                record(f, out, start_seconds if f == 0 else step_seconds)
+                if not later:
+                    record(f, out, start_seconds if f == 0 else step_seconds)
                 bar.update(1)
 
             result = run_frames(p.stepped, seq, p.initial, p.frames, on_frame=on_frame, threads=threads)
+        if later:
+            for f in range(result.frames):
+                out = {pid: t[f] for pid, t in result.tracks.items() if f in t}
+                record(f, out, start_seconds if f == 0 else result.seconds[f])
         wall = time.perf_counter() - t0
         info = {"tracker": tracker.name, "data": seq.name, "seed": settings.seed,
                 "run_id": metadata.get("run_id", "")}

@@ -23,7 +23,8 @@ from mocap.trackers.contract import Needs, OnePerson
 from mocap.trackers.diagnostics import LocalTrace, Misalignment, ShapeUpdate, StepDiagnostics
 from mocap.trackers.init_cache import SilhouetteInitialisation
 from mocap.trackers.shape_search import refine_shape, shifted
-from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings
+from mocap.trackers.smoothing import filter_pad, smooth_track
+from mocap.trackers.tracker_settings import InitSettings, LocalSettings, LocalStepSettings, TrackSmoothing
 
 
 class LocalTracker(SilhouetteInitialisation, OnePerson):
@@ -48,7 +49,9 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         self.iterations, self.tolerance = settings.iterations, settings.tolerance
         self.damping = settings.damping
         self.energy_tolerance = settings.energy_tolerance
+        self.active_limits = settings.active_limits
         self.prediction_damping = settings.prediction_damping
+        self.fps: float | None = None       # the sequence's frame rate (check_sequence): smoothing's
         self.shaped = None
         self.history: list[np.ndarray] = []
 
@@ -64,6 +67,35 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         self.history = [chi]
         self.last_images = None
         self.keyframes: deque = deque(maxlen=self.shape_settings.keyframes)   # (index, chi, masks)
+
+    @property
+    def smoothing(self) -> TrackSmoothing:
+        """The finished track's smoothing (``tracker_settings.smoothing``; off where the settings
+        have none)."""
+        return getattr(self.tracker_settings, "smoothing", None) or TrackSmoothing()
+
+    @property
+    def revises_tracks(self) -> bool:
+        """Whether :meth:`final_tracks` changes the estimates the frames were answered with (the
+        run then records the frames from the final tracks)."""
+        return self.smoothing.enabled
+
+    def check_sequence(self, seq) -> None:
+        """As :class:`OnePerson`'s; keeps the sequence's frame rate (the smoothing's time base)."""
+        super().check_sequence(seq)
+        self.fps = float(seq.fps)
+
+    def final_tracks(self, tracks):
+        """The tracks as tracked, or with ``smoothing`` on, each person's poses smoothed
+        (:func:`mocap.trackers.smoothing.smooth_track`, at the frame rate of the sequence given
+        to :meth:`check_sequence`)."""
+        pad = filter_pad(self.smoothing.order)
+        if not self.smoothing.enabled or all(len(t) <= pad for t in tracks.values()):
+            return tracks               # off, or too short to smooth
+        if self.fps is None:
+            raise RuntimeError(f"tracker {self.name!r}: smoothing needs the frame rate: call "
+                               "check_sequence(seq) before tracking")
+        return {pid: smooth_track(t, self.body.limits, self.fps, self.smoothing) for pid, t in tracks.items()}
 
     def set_shape(self, alpha: np.ndarray) -> None:
         """Track on with the shape ``alpha`` (K,)."""
@@ -137,7 +169,7 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
         iterations = self.iterations if iterations is None else iterations
         chi, opt = optimize_pose(self.shaped, start, correspond, iterations, self.tolerance,
                                  self.damping, free=free, energy_tolerance=self.energy_tolerance,
-                                 extra=extra)
+                                 extra=extra, active_limits=self.active_limits)
         return chi, LocalTrace.from_optimizer(opt, sift_info)
 
     def step(self, frame: Frame) -> Estimate:

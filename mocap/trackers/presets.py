@@ -21,6 +21,7 @@ from mocap.trackers.tracker_settings import (
     HybridSettings,
     InitSettings,
     LocalSettings,
+    TrackSmoothing,
     TwoCueShape,
 )
 
@@ -57,9 +58,18 @@ KEYPOINT_SHAPE_FRAMES = 15
 TWO_CUE_VIEW_SAMPLES = 16.0
 _TWO_CUE = TwoCueShape(frames=KEYPOINT_SHAPE_FRAMES, keyframes=KEYPOINT_SHAPE_FRAMES, aligned_only=False,
                        view_samples=TWO_CUE_VIEW_SAMPLES)
+#: its local step solved within the joint limits (an angle at its limit held while the others take up
+#: what it cannot give, not clipped after the solve), chosen on the same dev split (issue 34 item 4:
+#: docs/results/surface.md, "The two-cue hybrid's pose")
+KEYPOINT_ACTIVE_LIMITS = True
+#: its finished track smoothed (zero-phase 4th-order Butterworth at this cut-off, Hz), chosen on the same
+#: dev split among 2, 3, 4, 6 and 8 Hz (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid's pose")
+KEYPOINT_SMOOTHING_HZ = 4.0
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
+                     local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
+                     smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),
                      keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
                                        shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES,
                                        two_cue=_TWO_CUE))

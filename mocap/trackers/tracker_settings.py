@@ -17,6 +17,7 @@ from here. Build any of them from a mapping with
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from mocap.energy.weights import EnergyWeights
@@ -356,18 +357,44 @@ class APFTrackerSettings(SilhouetteSearchSettings):
 
 
 @dataclass(frozen=True)
+class TrackSmoothing:
+    """``smoothing``: the finished track's zero-phase Butterworth low-pass
+    (:mod:`mocap.trackers.smoothing`; the recording, motion.npz and metrics all hold the smoothed
+    track). ``cutoff_hz``: its cut-off (Hz, at the sequence's frame rate; 0: off, the track as
+    tracked); ``order``: the filter's order (the forward-backward pass doubles it)."""
+
+    cutoff_hz: float = 0.0
+    order: int = 4
+
+    def __post_init__(self) -> None:
+        number = isinstance(self.cutoff_hz, int | float) and not isinstance(self.cutoff_hz, bool)
+        check(self, "cutoff_hz", number and math.isfinite(self.cutoff_hz) and self.cutoff_hz >= 0,
+              "a number >= 0 (0: off)")
+        integer = isinstance(self.order, int) and not isinstance(self.order, bool)
+        check(self, "order", integer and 1 <= self.order <= 8, "an integer in [1, 8]")
+
+    @property
+    def enabled(self) -> bool:
+        return self.cutoff_hz > 0
+
+
+@dataclass(frozen=True)
 class LocalStepSettings:
     """Local optimisation (Zhang et al. 2013, Sec. 4.1): at most ``iterations`` linearised
     steps with Levenberg ``damping``, stopping when the pose moves less than ``tolerance`` or
     (``energy_tolerance`` > 0) when an iteration lowered the RMS point-line distance by less
     than that share; the contour and SIFT correspondences, the misalignment check and the
-    shape refinement (``shape.every``: frames between refinements, 0: off)."""
+    shape refinement (``shape.every``: frames between refinements, 0: off). ``active_limits``:
+    each linearised step is solved within the joint limits (an angle at its limit held there
+    while the others take up what it cannot give: :func:`mocap.local.solver.bounded_solve`)
+    instead of solved free and clipped after (off: the paper's step)."""
 
     iterations: int = 10
     tolerance: float = 1e-4
     damping: float = 1e-3
     prediction_damping: float = 1.0
     energy_tolerance: float = 0.0
+    active_limits: bool = False
     contour: ContourSettings = field(default_factory=ContourSettings)
     sift: SiftSettings = field(default_factory=SiftSettings)
     misalignment: MisalignmentSettings = field(default_factory=MisalignmentSettings)
@@ -383,11 +410,13 @@ class LocalStepSettings:
 
 @dataclass(frozen=True)
 class LocalSettings(LocalStepSettings):
-    """``local``: the local step, the self-initialisation's settings; ``keep_particles`` is
-    accepted for a uniform interface (the local tracker has none)."""
+    """``local``: the local step, the self-initialisation's settings, the finished track's
+    ``smoothing`` (off by default); ``keep_particles`` is accepted for a uniform interface (the
+    local tracker has none)."""
 
     initialization: InitSettings = InitSettings()
     keep_particles: bool = False
+    smoothing: TrackSmoothing = TrackSmoothing()
 
 
 @dataclass(frozen=True)
@@ -460,7 +489,8 @@ class HybridSettings:
     each kept where the frame's E_S falls, then a local step (kept where it falls too): the
     start's limbs get the search a misaligned limb gets while tracking, which the check after
     the start never asks for
-    (:meth:`~mocap.trackers.hybrid_tracker.HybridTracker.refine_initial`)."""
+    (:meth:`~mocap.trackers.hybrid_tracker.HybridTracker.refine_initial`). ``smoothing``: the
+    finished track's zero-phase low-pass (:class:`TrackSmoothing`, off by default)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = HybridSearchSettings()
@@ -468,3 +498,4 @@ class HybridSettings:
     initialization: InitSettings = field(default_factory=_hybrid_init)
     keep_particles: bool = False
     start_search: bool = False
+    smoothing: TrackSmoothing = TrackSmoothing()
