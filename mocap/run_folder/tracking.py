@@ -231,7 +231,7 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
     t0 = time.perf_counter()
     # a tracker whose final tracks revise the frames' answers (a smoothed track) is recorded from
     # them once tracking ends, so that the recording, motion.npz and metrics hold one track
-    later = bool(getattr(p.stepped, "revises_tracks", False))
+    later = bool(p.stepped.revises_tracks)
     with run_attempt(out_dir, sink):
         with tqdm(total=p.frames, desc=f"{tracker.name} on {seq.name}", unit="frame") as bar:
             def on_frame(f, out, step_seconds):

@@ -9,7 +9,9 @@ answers each later frame (``track``) with a :data:`FrameEstimate`: person id -> 
 single-person tracker answers for person 0 (:class:`OnePerson` gives it ``begin`` and
 ``track`` from its ``initialize`` / ``step``); a several-people tracker for every person live
 in the frame, and says so (``several_people``), so the run writes the several-people motion
-file and metrics. Everything the run asks of a tracker is written here: the run probes no
+file and metrics. A tracker whose ``final_tracks`` revise the answers its frames were given (a
+smoothed track) says so (``revises_tracks``), so the run records the frames from the final
+tracks once tracking ends. Everything the run asks of a tracker is written here: the run probes no
 attribute.
 
 A tracker of one's own implements :class:`Tracker` (usually: subclass :class:`OnePerson`, write
@@ -111,6 +113,7 @@ class Tracker(Protocol):
     name: str
     needs: Needs
     several_people: bool
+    revises_tracks: bool
     start_up_flags: Sequence[str]
 
     @property
@@ -142,6 +145,7 @@ class OnePerson:
     what it has."""
 
     several_people: ClassVar[bool] = False
+    revises_tracks: bool = False        # final_tracks returns the tracks as answered
     needs: Needs = Needs()
     start_up_flags: Sequence[str] = ()
 

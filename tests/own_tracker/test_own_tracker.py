@@ -69,6 +69,7 @@ class DriftPeople:
     person 1 is no longer answered for after frame ``LEAVES_AFTER``."""
 
     several_people = True
+    revises_tracks = False
     needs = Needs()
     budget = SearchBudget()
     start_up_flags = ()

@@ -149,6 +149,7 @@ class PeopleTracker:
     tracks are :meth:`estimates_by_person` (a departed person's coasted frames dropped)."""
 
     several_people = True
+    revises_tracks = False       # final_tracks: the tracks as answered, ended ones included
     needs = Needs(detections=True)
     budget = SearchBudget()
 
