@@ -85,6 +85,8 @@ class RunFolderLock(Callback):
             with read_write(config.hydra), open_dict(config.hydra):
                 config.hydra.output_subdir = None
                 _console_only(config.hydra.job_logging)
+        except OSError:                 # a folder that cannot be written: the task says so, in one line
+            return
 
 
 def _console_only(logging_config: DictConfig | None) -> None:
