@@ -73,7 +73,8 @@ class Perturbation:
 
 
 class FailureInjection(OnePerson):
-    """Wraps ``tracker``: same interface, same name; ``skips`` and ``perturbations`` happen
+    """Wraps ``tracker``: same interface, same name, its sequence check and final tracks (a
+    smoothed track stays smoothed under injection); ``skips`` and ``perturbations`` happen
     at their frames (by ``Frame.index``); ``rng`` draws the perturbed DOFs and signs."""
 
     def __init__(self, tracker: Tracker, body: BodyModel, skips: Sequence[FrameSkip] = (),
@@ -88,6 +89,17 @@ class FailureInjection(OnePerson):
             raise ValueError("a perturbation at a skipped frame would never reach the tracker")
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.last: Estimate | None = None
+
+    def check_sequence(self, seq) -> None:
+        self.tracker.check_sequence(seq)
+
+    @property
+    def revises_tracks(self) -> bool:
+        """The wrapped tracker's: its final tracks (a smoothed track) are the run's."""
+        return self.tracker.revises_tracks
+
+    def final_tracks(self, tracks):
+        return self.tracker.final_tracks(tracks)
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         self.tracker.initialize(chi, alpha)

@@ -185,3 +185,24 @@ def test_the_tracker_smooths_only_tracks_long_enough_and_needs_the_frame_rate(bo
     np.testing.assert_allclose(np.stack([e.chi for e in tracker.final_tracks(long)[0].values()]),
                                smooth_poses(chis, body.limits, FPS, TrackSmoothing(cutoff_hz=4.0)))
     assert not LocalTracker(body, rig).revises_tracks
+
+
+def test_failure_injection_keeps_the_wrapped_trackers_smoothing(body):
+    """A recovery run (``mocap recovery``: the tracker wrapped by FailureInjection) gets the wrapped
+    tracker's final tracks: smoothed where it smooths, as tracked where it does not."""
+    from mocap.cameras import ring_rig
+    from mocap.trackers.base import Estimate
+    from mocap.trackers.failures import FailureInjection
+    from mocap.trackers.local_tracker import LocalTracker
+
+    rig = ring_rig(4, 3.5, 1.5, 160, 120, fov_deg=45)
+    inner = LocalTracker(body, rig, LocalSettings(smoothing=TrackSmoothing(cutoff_hz=4.0)))
+    inner.fps = FPS
+    wrapped = FailureInjection(inner, body)
+    chis = np.random.default_rng(7).normal(0, 0.01, (40, body.num_dofs))
+    tracks = {0: {f: Estimate(chi=chis[f], alpha=np.zeros(3)) for f in range(40)}}
+    assert wrapped.revises_tracks
+    np.testing.assert_allclose(np.stack([e.chi for e in wrapped.final_tracks(tracks)[0].values()]),
+                               smooth_poses(chis, body.limits, FPS, TrackSmoothing(cutoff_hz=4.0)))
+    plain = FailureInjection(LocalTracker(body, rig), body)
+    assert not plain.revises_tracks and plain.final_tracks(tracks) is tracks
