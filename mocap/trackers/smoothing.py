@@ -52,11 +52,12 @@ def lowpass(x: np.ndarray, cutoff_hz: float, fps: float, order: int = 4) -> np.n
 
 
 def continuous_quaternions(R: np.ndarray) -> np.ndarray:
-    """Rotations R (F, 3, 3) as unit quaternions (F, 4) (x, y, z, w), each one's sign chosen
-    nearest the previous frame's (q and -q are one rotation)."""
-    from scipy.spatial.transform import Rotation
+    """Rotations R (F, 3, 3) as unit quaternions (F, 4) (x, y, z, w)
+    (:func:`mocap.export.axes.quaternions_from_rotations`, the project's one conversion), each
+    one's sign chosen nearest the previous frame's (q and -q are one rotation)."""
+    from mocap.export.axes import quaternions_from_rotations
 
-    q = Rotation.from_matrix(np.asarray(R, np.float64)).as_quat()
+    q = quaternions_from_rotations(R)
     for f in range(1, len(q)):
         if np.dot(q[f], q[f - 1]) < 0:
             q[f] = -q[f]
