@@ -25,12 +25,12 @@ kept, and how many of the kept ones lowered the joint error.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from experiments.tools.jsonl import report
 from mocap.body import load_body
 from mocap.data.sources import folder_sequence
 from mocap.eval.by_name import NameScorer
@@ -177,10 +177,7 @@ def main(argv=None) -> None:
     for s in a.sequences:
         for start in a.start:
             r = run(s, start, a.frames, a.seed, a.tracker, overrides, a.init_cache)
-            print(summary(r), flush=True)
-            if a.out:
-                with open(a.out, "a") as fh:
-                    fh.write(json.dumps(r) + "\n")
+            report(r, summary(r), a.out)
 
 
 if __name__ == "__main__":

@@ -22,12 +22,12 @@ missed a better minimum; if not, one frame's silhouettes prefer the wrong pose (
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 
 from experiments.sil_hybrid_diagnosis import joint_errors
+from experiments.tools.jsonl import report
 from mocap.body import load_body
 from mocap.body.energy_mesh import energy_mesh_for
 from mocap.data.sources import folder_sequence
@@ -128,10 +128,7 @@ def main(argv=None) -> None:
     a = p.parse_args(argv)
     for s in a.sequences:
         r = measure(s, a.seed, a.init_cache, a.frames)
-        print(summary(r), flush=True)
-        if a.out:
-            with open(a.out, "a") as fh:
-                fh.write(json.dumps(r) + "\n")
+        report(r, summary(r), a.out)
 
 
 if __name__ == "__main__":

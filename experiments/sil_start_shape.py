@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import copy
 import dataclasses
-import json
 import time
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import numpy as np
 
 from experiments.sil_hybrid_diagnosis import joint_errors
 from experiments.sil_start_energy import StartEnergies
+from experiments.tools.jsonl import report
 from mocap.body import load_body
 from mocap.body.energy_mesh import energy_mesh_for
 from mocap.data.sources import folder_sequence
@@ -90,10 +90,7 @@ def main(argv=None) -> None:
                "shape_pose_shape_std": a.shape_std}
     for s in a.sequences:
         r = measure(s, a.seed, a.init_cache, changes, a.mesh)
-        print(summary(r), flush=True)
-        if a.out:
-            with open(a.out, "a") as fh:
-                fh.write(json.dumps(r) + "\n")
+        report(r, summary(r), a.out)
 
 
 if __name__ == "__main__":
