@@ -40,6 +40,7 @@ from mocap.safe_files import write_npz_atomic
 from mocap.trackers import init_retrieval, initialization
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import Initializer, initial_estimate_of
+from mocap.trackers.tracker_settings import InitSettings
 
 
 class ProgressLine:
@@ -95,17 +96,19 @@ class SilhouetteStart:
     ending at ("done", 1.0)); None: a :class:`ProgressLine` on stderr. Settable after
     construction (``tracker.initializer(cache).start.progress = ...``)."""
 
-    def __init__(self, body, rig, settings, rng: np.random.Generator,
+    def __init__(self, body, rig, settings: InitSettings | None, rng: np.random.Generator,
                  progress: Callable[[str, float], None] | None = None, library: np.ndarray | None = None):
         self.body, self.rig, self.settings, self.rng = body, rig, settings, rng
         self.progress, self.library = progress, library
+        #: the start by retrieval (``settings.search`` "retrieval"); otherwise (no settings: the
+        #: defaults) the annealed start
+        self.by_retrieval = isinstance(settings, InitSettings) and settings.search == "retrieval"
 
     def __call__(self, frame: Frame) -> tuple[dict[int, Estimate], dict]:
         t = time.perf_counter()
         line = ProgressLine("silhouette start-up") if self.progress is None else None
         try:
-            compute = (init_retrieval.initialize_by_retrieval
-                       if getattr(self.settings, "search", "anneal") == "retrieval"
+            compute = (init_retrieval.initialize_by_retrieval if self.by_retrieval
                        else initialization.initialize_from_silhouettes)
             chi, alpha, diag = compute(self.body, self.rig, frame.masks, self.rng, self.settings,
                                        progress=self.progress or line, library=self.library)
@@ -127,8 +130,7 @@ class SilhouetteStart:
         h.update(json.dumps(rig_to_dict(self.rig), sort_keys=True, default=str).encode())
         h.update(settings_text(self.settings).encode())
         h.update(f"initializer-v{initialization.INITIALIZER_VERSION}".encode())
-        reads_library = (getattr(self.settings, "limb_hypotheses", 0)
-                         or getattr(self.settings, "search", "anneal") == "retrieval")
+        reads_library = (getattr(self.settings, "limb_hypotheses", 0) or self.by_retrieval)
         if reads_library and self.library is not None:
             h.update(np.ascontiguousarray(self.library, dtype=np.float64).tobytes())
         h.update(json.dumps(self.rng.bit_generator.state, sort_keys=True, default=str).encode())

@@ -73,8 +73,32 @@ def posed_vertices(body: BodyModel, chis: np.ndarray, shapes: np.ndarray) -> np.
     return out
 
 
+def particle_energies(body: BodyModel, rig: Rig, target: SilhouetteTarget, chis: np.ndarray,
+                      shapes: np.ndarray, shift: np.ndarray | None = None, mesh=None, kernel=None,
+                      raster=None) -> np.ndarray:
+    """E_S per particle and view, (P, C) (every view, valid or not), of the body posed at chis
+    (P, D) with each particle's own shape (P, K) (:func:`posed_vertices`), on ``mesh`` (an
+    :class:`~mocap.body.energy_mesh.EnergyMesh`; None: the full mesh), moved by ``shift`` (P, 3)
+    world metres (None: not moved), seen by ``rig`` at ``target``'s resolution: by ``kernel``
+    (:class:`mocap.energy.fused.FusedSilhouetteEnergy`) when given, else rasterised by ``raster``
+    (:func:`mocap.render.get_rasterizer`'s) and scored by :func:`chamfer_energy`. The one E_S of
+    per-particle shapes that the shape searches (:func:`shape_energy`, the two-cue fit's
+    silhouettes, the start's shape-with-pose search) score with."""
+    verts = posed_vertices(body, chis, shapes)
+    if mesh is not None:
+        verts = mesh.apply(verts)
+    if shift is not None:
+        verts = verts + shift[:, None].astype(verts.dtype)
+    if kernel is not None:
+        return kernel(camera_coordinates(rig, verts), rig, target, near=0.05)
+    px, depth = project(rig, verts, return_depth=True)
+    h, w = target.size
+    return chamfer_energy(raster(px, h, w, depth, near=0.05), target)
+
+
 def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, components: int,
-                 translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False):
+                 translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False,
+                 per_view: bool = False):
     """E_S as a function of the first ``components`` shape coefficients: a function of
     (P, components) -> (P,), the mean over frames of E_S with the poses chis (N, D) (or one
     pose (D,)) held, against ``targets`` (one :class:`SilhouetteTarget` per pose, at ``rig``'s
@@ -84,7 +108,9 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
     the floor). ``compiled``: the compiled kernel of :mod:`mocap.energy.fused` (rasterise and
     chamfer in one pass per particle-view, as :class:`SilhouetteEnergy` runs it: the same
     energies up to summation order) when numba imports, instead of the scanline rasterizer
-    and :func:`chamfer_energy` (which the trackers' shape refinement keeps)."""
+    and :func:`chamfer_energy` (which the trackers' shape refinement keeps). ``per_view``: the
+    function returns instead each pose's E_S per particle and view, N of (P, C), NaN in the
+    target's invalid views (:func:`particle_energies`)."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
     if isinstance(targets, SilhouetteTarget):
         targets = [targets]
@@ -95,22 +121,22 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
               if compiled and fused.numba_available() else None)
     base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
 
-    def energy(a: np.ndarray) -> np.ndarray:
+    def views(a: np.ndarray) -> list[np.ndarray]:
         a = np.atleast_2d(a)
         shapes = np.repeat(base[None], len(a), axis=0)
         shapes[:, :components] = a[:, :components]
-        total = np.zeros(len(a))
-        for chi, target in zip(chis, targets, strict=True):
-            verts = posed_vertices(body, np.repeat(chi[None], len(a), axis=0), shapes)
-            if translate:
-                verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
-            if kernel is not None:
-                per_view = kernel(camera_coordinates(rig, verts), rig, target, near=0.05)
-            else:
-                px, depth = project(rig, verts, return_depth=True)
-                h, w = target.size
-                per_view = chamfer_energy(raster(px, h, w, depth, near=0.05), target)
-            total += np.nanmean(per_view[:, target.valid], axis=1)
+        shift = a[:, components:components + 3] if translate else None
+        return [particle_energies(body, rig, target, np.repeat(chi[None], len(a), axis=0), shapes, shift,
+                                  kernel=kernel, raster=raster)
+                for chi, target in zip(chis, targets, strict=True)]
+
+    if per_view:
+        return lambda a: [np.where(t.valid, e, np.nan) for e, t in zip(views(a), targets, strict=True)]
+
+    def energy(a: np.ndarray) -> np.ndarray:
+        total = np.zeros(len(np.atleast_2d(a)))
+        for e, target in zip(views(a), targets, strict=True):
+            total += np.nanmean(e[:, target.valid], axis=1)
         return total / len(chis)
 
     return energy

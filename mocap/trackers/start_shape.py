@@ -27,11 +27,11 @@ import numpy as np
 
 from mocap.body.energy_mesh import EnergyMesh
 from mocap.body.model import BodyModel
-from mocap.cameras import Rig, camera_coordinates
+from mocap.cameras import Rig
 from mocap.energy import fused
 from mocap.energy.silhouette import SilhouetteTarget
 from mocap.trackers.apf import run_apf
-from mocap.trackers.shape_search import posed_vertices
+from mocap.trackers.shape_search import particle_energies, posed_vertices
 from mocap.trackers.tracker_settings import APFSettings
 
 #: shape coefficients' search range (standardised PCA units), as the start's shape search
@@ -92,10 +92,7 @@ def shape_pose_energy(body: BodyModel, rig: Rig, target: SilhouetteTarget, alpha
             raise ValueError(f"shape-and-pose particles need {D + C} columns, got {x.shape[1]}")
         shapes = np.repeat(base[None], len(x), axis=0)
         shapes[:, :C] = x[:, D:]
-        verts = posed_vertices(body, posed(x), shapes)
-        if mesh is not None:
-            verts = mesh.apply(verts)
-        per_view = kernel(camera_coordinates(rig, verts), rig, target, near=0.05)
+        per_view = particle_energies(body, rig, target, posed(x), shapes, mesh=mesh, kernel=kernel)
         return np.nanmean(per_view[:, target.valid], axis=1)
 
     energy.pose = posed             # particles (P, D + C) -> the poses (P, D) they are scored with

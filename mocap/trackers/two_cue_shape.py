@@ -41,12 +41,10 @@ from mocap.body.bone_lengths import length_model, shrink_to_bounds, skeleton_len
 from mocap.body.catalogue import rest_point_basis, rigid_pairs
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
-from mocap.cameras import Rig, camera_coordinates, project
-from mocap.energy import fused
-from mocap.energy.silhouette import chamfer_energy, silhouette_target
-from mocap.render import get_rasterizer
+from mocap.cameras import Rig
+from mocap.energy.silhouette import silhouette_target
 from mocap.trackers.apf import run_apf
-from mocap.trackers.shape_search import posed_vertices
+from mocap.trackers.shape_search import shape_energy
 from mocap.trackers.tracker_settings import APFSettings, TwoCueShape
 
 #: measured lengths this many shape-model sigmas from the model's mean are outliers (the marker
@@ -155,27 +153,10 @@ def silhouette_evidence(body: BodyModel, rig: Rig, alpha: np.ndarray, chis: np.n
     targets = [silhouette_target(m, scale, view_names=tuple(rig.names)) for m in masks]
     if len(targets) != len(chis):
         raise ValueError(f"two-cue shape: {len(chis)} poses for {len(targets)} silhouette masks")
-    kernel = fused.FusedSilhouetteEnergy(body.faces, body.num_vertices) \
-        if compiled and fused.numba_available() else None
-    raster = get_rasterizer(body.faces, body.num_vertices)
     base = np.asarray(alpha, np.float64)
     C = min(components, len(base))
-
-    def per_view(x: np.ndarray) -> list[np.ndarray]:
-        x = np.atleast_2d(x)
-        shapes = np.repeat(base[None], len(x), axis=0)
-        shapes[:, :C] = x[:, :C]
-        out = []
-        for chi, target in zip(chis, targets, strict=True):
-            verts = posed_vertices(body, np.repeat(chi[None], len(x), axis=0), shapes)
-            verts = verts + x[:, None, C:C + 3].astype(verts.dtype)
-            if kernel is not None:
-                e = kernel(camera_coordinates(small, verts), small, target, near=0.05)
-            else:
-                px, depth = project(small, verts, return_depth=True)
-                e = chamfer_energy(raster(px, *target.size, depth, near=0.05), target)
-            out.append(np.where(target.valid, e, np.nan))
-        return out
+    per_view = shape_energy(body, small, chis, targets, C, translate=True, alpha=base, compiled=compiled,
+                            per_view=True)
 
     scale0 = per_view(np.r_[base[:C], np.zeros(3)])
 

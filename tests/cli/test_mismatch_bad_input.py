@@ -4,8 +4,6 @@ and reported; ground truth naming joints the body does not have fails before any
 from __future__ import annotations
 
 import dataclasses
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +14,7 @@ from mocap.data.sequence_io import write_sequence
 from mocap.data.sources import folder_sequence
 from mocap.eval.mismatch import fit_oracle
 from mocap.trackers.initialization import initialize_from_silhouettes
+from tests.cli import in_process
 
 REPO = Path(__file__).resolve().parents[2]
 BOX = REPO / "data" / "mismatch" / "box"
@@ -58,10 +57,8 @@ def test_ground_truth_with_joints_the_body_lacks_fails_before_any_work(body, tmp
                               gt=dataclasses.replace(gt, joints=joints, joint_names=tuple(names), skeleton="",
                                                      joint_valid=None, surface=None, surface_faces=None))
     write_sequence(bad, tmp_path / "seq")
-    out = subprocess.run([sys.executable, "-m", "mocap_cli", "track", "data=folder",
-                          f"data.path={tmp_path / 'seq'}", "tracker=local", "init.mode=tracker",
-                          f"hydra.run.dir={tmp_path / 'run'}"], capture_output=True, text=True, cwd=REPO,
-                         timeout=300)
+    out = in_process.mocap("track", "data=folder", f"data.path={tmp_path / 'seq'}",     # in this process
+                           "tracker=local", "init.mode=tracker", f"hydra.run.dir={tmp_path / 'run'}")
     assert out.returncode != 0
     assert "tail_tip" in out.stderr and "unknown joints" in out.stderr
     assert not (tmp_path / "run" / "recording.rrd").exists()

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,18 +12,26 @@ import pytest
 
 import mocap
 from mocap.data.sources import folder_sequence
+from mocap.eval import run_metrics
 from mocap.eval.mismatch import fit_oracle
 from mocap.export.motion import motion_arrays, write_motion
 from mocap.run_folder.manifest import manifest_problem, write_manifest
 from mocap.trackers.base import Estimate
+from tests.cli import in_process
 
 REPO = Path(__file__).resolve().parents[2]
 WALK = REPO / "data" / "mismatch" / "walk"
 
 
 def rescore(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mocap_cli", "rescore", *map(str, args)],
-                          capture_output=True, text=True, cwd=REPO, timeout=600)
+    """``mocap rescore *args`` in this process (:mod:`tests.cli.in_process`: what it writes is the
+    point, not the process), as a fresh process would: with no oracle fit kept in memory by an
+    earlier call (:mod:`mocap.eval.run_metrics` keeps them per process), so a cached fit is read
+    from its cache folder or fitted and written there."""
+    with pytest.MonkeyPatch.context() as mp:
+        for memo in ("_ORACLES", "_FITS", "_SURFACE_ORACLES"):
+            mp.setattr(run_metrics, memo, {})
+        return in_process.mocap("rescore", *args)
 
 
 def test_rescoring_an_unchanged_evaluation_gives_the_runs_own_figures(short_run, tmp_path):

@@ -106,7 +106,11 @@ def test_each_sweep_composes_and_one_of_its_points_runs_two_frames(sweep, tmp_pa
         budget += [f"init.cache={tmp_path / 'cache'}", f"oracle.cache={tmp_path / 'oracles'}"]
         if not tracker.startswith("marker"):  # the marker tracker starts from its detections
             budget += ["++tracker.initialization.rounds=0", "++tracker.initialization.hypotheses=0",
-                       "++tracker.initialization.pose_particles=8", "++tracker.initialization.pose_layers=2"]
+                       "++tracker.initialization.pose_particles=8", "++tracker.initialization.pose_layers=2",
+                       # the hybrid start's later stages (its limbs anew, its shape with the pose)
+                       "++tracker.initialization.limb_particles=8", "++tracker.initialization.limb_layers=2",
+                       "++tracker.initialization.shape_pose_particles=8",
+                       "++tracker.initialization.shape_pose_layers=2"]
     r = run_track(tmp_path, f"+sweep={sweep}", "frames=2", *budget, *overrides)
     assert r.returncode == 0, r.stderr[-3000:]
     m = json.loads((tmp_path / "metrics.json").read_text())

@@ -3,7 +3,6 @@ metrics and recording; what it refuses, in one line."""
 
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,14 +13,14 @@ from mocap.export.people_motion import load_people_motion
 from mocap.recording.reader import read_recording
 from tests.cli.in_process import mocap
 
-REPO = Path(__file__).resolve().parents[2]
 FAST = ["tracker.particles=20", "tracker.layers=3", "tracker.init.particles=60", "tracker.init.passes=2",
         "tracker.init.layers=5"]
 
 
 def run_track(tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={tmp_path}",
-                           *overrides], capture_output=True, text=True, cwd=REPO, timeout=600)
+    """``mocap track`` in this process (:mod:`tests.cli.in_process`): what the run writes is the
+    point, not the process."""
+    return mocap("track", f"hydra.run.dir={tmp_path}", *overrides)
 
 
 @pytest.mark.slow

@@ -37,16 +37,13 @@ def test_a_run_with_blind_frames_says_which(body):
 
 def test_the_recording_plots_the_detections_per_frame(tmp_path):
     import json
-    import subprocess
-    import sys
-    from pathlib import Path
 
     from mocap.recording.reader import read_recording
+    from tests.cli.in_process import mocap as command
 
-    repo = Path(__file__).resolve().parents[2]
-    r = subprocess.run([sys.executable, "-m", "mocap_cli", "track", f"hydra.run.dir={tmp_path}",
-                        "tracker=marker_apf", "data=walk_markers_small", "frames=3", "tracker.particles=10",
-                        "tracker.layers=2"], capture_output=True, text=True, cwd=repo, timeout=600)
+    # in this process (tests/cli/in_process.py): the run's recording is the point, not the process
+    r = command("track", f"hydra.run.dir={tmp_path}", "tracker=marker_apf", "data=walk_markers_small",
+                "frames=3", "tracker.particles=10", "tracker.layers=2")
     assert r.returncode == 0, r.stderr[-3000:]
     assert json.loads((tmp_path / "metrics.json").read_text())["frames_without_detections"] == []
     series = read_recording(tmp_path / "recording.rrd")["scalars"]["/plots/input/detections"]

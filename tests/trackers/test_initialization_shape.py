@@ -15,16 +15,17 @@ from mocap.trackers.shape_search import shape_energy, shifted
 from mocap.trackers.tracker_settings import APFSettings
 
 C = 8
+PX = 128                                                      # image side: 2.3 cm a pixel at the body
 
 
 def tall_subject():
     body = mocap.load_body("paper22")
-    rig = ring_rig(4, 3.5, 1.5, 256, 256, fov_deg=45, look_at=(0, 0, 0.9))
+    rig = ring_rig(4, 3.5, 1.5, PX, PX, fov_deg=45, look_at=(0, 0, 0.9))
     alpha = np.zeros(body.num_shape)
     alpha[0] = 2.5                                            # 1.935 m; the mean body is 1.693 m
     chi = np.zeros(body.num_dofs)
     px, depth = project(rig, body.pose(chi[None], alpha[None]).vertices[0], return_depth=True)
-    masks = get_rasterizer(body.faces, body.num_vertices)(px, 256, 256, depth, near=0.05)
+    masks = get_rasterizer(body.faces, body.num_vertices)(px, PX, PX, depth, near=0.05)
     return body, rig, chi, silhouette_target(masks, 1.0, view_names=tuple(rig.names))
 
 

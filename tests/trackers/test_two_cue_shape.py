@@ -147,7 +147,7 @@ def test_the_hybrid_fits_the_shape_once_after_its_frames(body):
         chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
         return t, track_sequence(t, seq, chi, alpha).estimates
 
-    t_on, on = run(frames=3, keyframes=3, particles=10, layers=3)
+    t_on, on = run(frames=3, keyframes=3, particles=10, layers=3, polish=10)   # the schedule, not the fit
     alphas = np.stack([e.alpha for e in on])
     changed = np.flatnonzero(np.any(alphas[1:] != alphas[:-1], axis=1)) + 1
     assert changed.tolist() == [3]
