@@ -33,6 +33,7 @@ from mocap.trackers.apf import anneal, perturb
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import SearchBudget
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
+from mocap.trackers.heading import flagged_chains, turned_by
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
@@ -129,6 +130,8 @@ class HybridTracker(LocalTracker):
         self.library, self.restart_from_library = library, restart_fraction(a.restart_from_library)
         self.patrol = int(a.patrol)
         self.patrol_agreement, self.patrol_margin = float(a.patrol_agreement), float(a.patrol_margin)
+        self.heading_chains, self.heading_degrees = int(a.heading_chains), tuple(map(float, a.heading_angles))
+        self.heading_turns: dict[int, float] = {}    # frame -> the turn (deg) the heading search kept
         self.chains = limb_chains(body)
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
@@ -263,6 +266,24 @@ class HybridTracker(LocalTracker):
                               root_point=self.shaped.rest_joints[0])
         return chi_apf, apf, energy
 
+    def search_heading(self, frame: Frame, chi: np.ndarray, obs=None) -> np.ndarray:
+        """The pose ``chi`` (D,) turned about the vertical through its pelvis by each of
+        ``apf.heading_angles`` and refined by the local step from each; of those and ``chi``, the
+        one with the lowest mean per-view E_S (plus the marker likelihood with the keypoint cue),
+        recorded in ``heading_turns`` when turned: the limb search's start where most chains are
+        flagged (:mod:`mocap.trackers.heading`)."""
+        turned_poses = turned_by(self.shaped.rest_joints[0], chi, np.deg2rad(self.heading_degrees))
+        fitted = [self.local_step(frame, c, extra=self.keypoint_lines(obs))[0] for c in turned_poses]
+        poses = np.stack([chi, *fitted])
+        target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        e = self.sil.per_view(poses, target)[:, target.valid].mean(axis=1)
+        if obs is not None:
+            e = e + self.cue.scaled(self.cue.energy(self.shaped, obs), poses)
+        best = int(np.argmin(e))
+        if best:
+            self.heading_turns[frame.index] = self.heading_degrees[best - 1]
+        return poses[best]
+
     def patrol_check(self, frame: Frame, check: LimbCheck) -> LimbCheck | None:
         """On every ``patrol``-th frame whose check flagged nothing, the check with one limb chain
         flagged in turn (arms and legs round-robin), to be searched as if misaligned: a forearm
@@ -357,6 +378,8 @@ class HybridTracker(LocalTracker):
         if decision.apf_called:
             free = self.detector.free_dofs(patrol or check)
             chi_local = chi
+            if self.heading_chains and flagged_chains(self.chains, check.flagged) >= self.heading_chains:
+                chi = self.search_heading(frame, chi, obs)
             chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs)
             target = energy.target
             t3 = time.perf_counter()

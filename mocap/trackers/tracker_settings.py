@@ -429,7 +429,12 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     or not); ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame
     with nothing flagged one limb chain in turn is searched all the same (0: off), its pose kept
     only where E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of
-    the views."""
+    the views. ``heading_chains`` = N: where the check flags at least N limb chains at once, the
+    repair first turns the local step's pose about the vertical through its pelvis by each of
+    ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
+    whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
+    did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
+    torso: :mod:`mocap.trackers.heading`)."""
 
     particles: int = 25
     layers: int = 10
@@ -440,6 +445,8 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     patrol: int = 0
     patrol_agreement: float = 0.0
     patrol_margin: float = 0.0
+    heading_chains: int = 0
+    heading_angles: tuple[float, ...] = (-30.0, -15.0, 15.0, 30.0)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -450,6 +457,11 @@ class HybridSearchSettings(SilhouetteSearchSettings):
         check(self, "patrol", self.patrol >= 0, "an integer >= 0 frames")
         check(self, "patrol_agreement", 0.0 <= self.patrol_agreement <= 1.0, "[0, 1]")
         check(self, "patrol_margin", 0.0 <= self.patrol_margin < 1.0, "[0, 1)")
+        check(self, "heading_chains", self.heading_chains >= 0, "an integer >= 0 chains (0: off)")
+        angles = self.heading_angles
+        check(self, "heading_angles", isinstance(angles, tuple) and len(angles) >= 1
+              and all(isinstance(a, int | float) and math.isfinite(a) and abs(a) <= 180 for a in angles),
+              "a list of at least one angle in [-180, 180] degrees")
 
 
 def _hybrid_local() -> LocalStepSettings:
