@@ -86,6 +86,11 @@ class RestartFirstLayer:
         return out
 
 
+#: the share of a stuck limb chain's search's first layer that draws the chain's angles anew (all of
+#: those from the motion library when there is one): a quarter stays near the tracked pose
+STUCK_RESTART = 0.75
+
+
 def turned(shaped, chi: np.ndarray) -> np.ndarray:
     """The pose (D,) turned 180 degrees about the vertical (z) through its pelvis."""
     T = se3_exp(np.asarray(chi[:6], np.float64))
@@ -132,7 +137,10 @@ class HybridTracker(LocalTracker):
         self.patrol_agreement, self.patrol_margin = float(a.patrol_agreement), float(a.patrol_margin)
         self.heading_chains, self.heading_degrees = int(a.heading_chains), tuple(map(float, a.heading_angles))
         self.heading_turns: dict[int, float] = {}    # frame -> the turn (deg) the heading search kept
+        self.stuck_frames, self.stuck_particles = int(a.stuck_frames), int(a.stuck_particles)
+        self.stuck_searches: list[int] = []             # frames whose repair was the stuck chains' search
         self.chains = limb_chains(body)
+        self.streak = np.zeros(len(self.chains), int)   # frames in a row each limb chain was flagged
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
         self.shape_prior: np.ndarray | None = None      # the silhouettes' shape, the keypoint fits' prior
@@ -250,17 +258,24 @@ class HybridTracker(LocalTracker):
             return None
         return lambda chi: self.cue.lines(self.shaped, chi, obs)
 
-    def search(self, frame: Frame, chi: np.ndarray, predicted: np.ndarray, free: np.ndarray, obs=None):
-        """The APF over the ``free`` DOFs from ``chi``: (pose, anneal trace, energy)."""
+    def search(self, frame: Frame, chi: np.ndarray, predicted: np.ndarray, free: np.ndarray, obs=None,
+               stuck: bool = False):
+        """The APF over the ``free`` DOFs from ``chi``: (pose, anneal trace, energy). ``stuck``: a
+        limb chain flagged ``apf.stuck_frames`` frames in a row; the search has
+        ``apf.stuck_particles`` particles, and three quarters of its first layer take the searched
+        angles from the motion library (:class:`RestartFirstLayer`)."""
         target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        settings, restart, from_library = self.settings, self.restart, self.restart_from_library
+        if stuck:
+            settings = dataclasses.replace(settings, particles=self.stuck_particles)
+            restart, from_library = STUCK_RESTART, (1.0 if self.library is not None else 0.0)
         markers = None
         if obs is not None:
             marker_energy = self.cue.energy(self.shaped, obs)
             markers = lambda x: self.cue.scaled(marker_energy, x)       # noqa: E731
         energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior, markers=markers)
-        chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
-                              propagate=RestartFirstLayer(self.restart, free, self.library,
-                                                          self.restart_from_library),
+        chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, settings, self.rng,
+                              propagate=RestartFirstLayer(restart, free, self.library, from_library),
                               free=free,
                               keep_particles=self.keep_particles,
                               root_point=self.shaped.rest_joints[0])
@@ -370,6 +385,8 @@ class HybridTracker(LocalTracker):
                 check = dataclasses.replace(check, flagged=flagged,
                                             names=[self.body.joint_names[j] for j in np.flatnonzero(flagged)])
         t2 = time.perf_counter()
+        self.streak = np.array([(self.streak[i] + 1) * bool(check.flagged[[root, *limbs]].any())
+                                for i, (root, limbs) in enumerate(self.chains)], int)
         patrol = self.patrol_check(frame, check)
         decision = Misalignment.of(check, apf_called=bool(check.names) or patrol is not None,
                                    patrol=patrol is not None)
@@ -380,7 +397,10 @@ class HybridTracker(LocalTracker):
             chi_local = chi
             if self.heading_chains and flagged_chains(self.chains, check.flagged) >= self.heading_chains:
                 chi = self.search_heading(frame, chi, obs)
-            chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs)
+            stuck = bool(self.stuck_frames and patrol is None and (self.streak >= self.stuck_frames).any())
+            if stuck:
+                self.stuck_searches.append(frame.index)
+            chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs, stuck=stuck)
             target = energy.target
             t3 = time.perf_counter()
             chi, refine = self.local_step(frame, chi_apf, extra=self.keypoint_lines(obs),

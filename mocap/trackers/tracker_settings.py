@@ -434,7 +434,11 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
     whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
     did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
-    torso: :mod:`mocap.trackers.heading`)."""
+    torso: :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged
+    on N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
+    of its first layer take the flagged chains' angles from the motion library (0: off; a limb
+    wrong from the start is flagged frame after frame while the usual search, a few library
+    draws among 25 particles, never finds it)."""
 
     particles: int = 25
     layers: int = 10
@@ -447,6 +451,8 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     patrol_margin: float = 0.0
     heading_chains: int = 0
     heading_angles: tuple[float, ...] = (-30.0, -15.0, 15.0, 30.0)
+    stuck_frames: int = 0
+    stuck_particles: int = 100
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -458,6 +464,8 @@ class HybridSearchSettings(SilhouetteSearchSettings):
         check(self, "patrol_agreement", 0.0 <= self.patrol_agreement <= 1.0, "[0, 1]")
         check(self, "patrol_margin", 0.0 <= self.patrol_margin < 1.0, "[0, 1)")
         check(self, "heading_chains", self.heading_chains >= 0, "an integer >= 0 chains (0: off)")
+        check(self, "stuck_frames", self.stuck_frames >= 0, "an integer >= 0 frames (0: off)")
+        check(self, "stuck_particles", self.stuck_particles >= 2, "an integer >= 2")
         angles = self.heading_angles
         check(self, "heading_angles", isinstance(angles, tuple) and len(angles) >= 1
               and all(isinstance(a, int | float) and math.isfinite(a) and abs(a) <= 180 for a in angles),

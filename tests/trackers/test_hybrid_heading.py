@@ -95,3 +95,39 @@ def test_a_turned_body_is_repaired_in_the_step_only_with_the_heading_search(body
 def test_bad_heading_settings_are_refused_naming_the_field(field, value):
     with pytest.raises(SettingError, match=field):
         HybridSearchSettings(**{field: value})
+
+
+def raised_arm(body, chi):
+    """The pose with the left arm lifted sideways by 1.2 rad and its elbow bent by 1 rad."""
+    out = np.array(chi, np.float64)
+    out[body.dof_index("l_shoulder_abd")] += 1.2
+    out[body.dof_index("l_elbow_flex")] += 1.0
+    return np.clip(out, body.limits[:, 0], body.limits[:, 1])
+
+
+@pytest.mark.parametrize("stuck_frames", [1, 2])
+def test_a_chain_flagged_stuck_frames_in_a_row_gets_the_wide_search(body, seq, stuck_frames):
+    """``apf.stuck_frames`` = N: the chain flagged on this frame (one in a row) is stuck for N = 1 (the
+    search has ``stuck_particles`` x layers evaluations, its library draws bring the arm back), not
+    for N = 2 (the usual 25 particles)."""
+    truth = seq.gt.chi[0]
+    t = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(3),
+                     apf={"stuck_frames": stuck_frames, "stuck_particles": 60}, **FAST)
+    start = raised_arm(body, truth)
+    t.initialize(start, seq.gt.alpha)
+    est = t.step(frame_of(seq, 0))
+    check = est.diagnostics.misalignment
+    assert check.apf_called and "l_elbow" in check.limbs
+    stuck = stuck_frames == 1
+    assert t.stuck_searches == ([0] if stuck else [])
+    assert est.diagnostics.anneal.evaluations == (60 if stuck else 25) * 10
+    assert t.streak[[body.joint_names[r] for r, _ in t.chains].index("l_shoulder")] == 1
+    if stuck:
+        before, after = (joints_mm(body, seq.gt.alpha, c, truth) for c in (start, est.chi))
+        assert after < 0.5 * before, (before, after)
+
+
+def test_stuck_settings_out_of_range_are_refused():
+    for field, value in (("stuck_frames", -1), ("stuck_particles", 1)):
+        with pytest.raises(SettingError, match=field):
+            HybridSearchSettings(**{field: value})
