@@ -472,12 +472,27 @@ class HybridSearchSettings(SilhouetteSearchSettings):
               "a list of at least one angle in [-180, 180] degrees")
 
 
+#: the silhouette-only hybrid's local step solved within the joint limits (``active_limits``), chosen on
+#: the real-motion dev split together with HYBRID_STUCK_FRAMES (issue 34 item 4: docs/results/surface.md,
+#: "Silhouette-only hybrid: repair and start over frames"); ``hybrid_kp`` had it already
+HYBRID_ACTIVE_LIMITS = True
+#: ... and its repair's wide search for a limb chain flagged this many frames in a row
+#: (HybridSearchSettings.stuck_frames; ``hybrid_kp`` keeps it off: not measured with keypoints)
+HYBRID_STUCK_FRAMES = 3
+
+
 def _hybrid_local() -> LocalStepSettings:
     """The hybrid's local step: the misalignment check also charges observed pixels the model
-    leaves unexplained to the nearest limb chain (0: the paper's one-sided check), and the
-    shape is refined while tracking."""
+    leaves unexplained to the nearest limb chain (0: the paper's one-sided check), the shape is
+    refined while tracking, and each step is solved within the joint limits."""
     return LocalStepSettings(misalignment=MisalignmentSettings(unexplained=0.005),
-                             shape=ShapeRefinement(every=10))
+                             shape=ShapeRefinement(every=10), active_limits=HYBRID_ACTIVE_LIMITS)
+
+
+def _hybrid_apf() -> HybridSearchSettings:
+    """The hybrid's repair search: a limb chain flagged HYBRID_STUCK_FRAMES frames in a row gets the
+    wide search."""
+    return HybridSearchSettings(stuck_frames=HYBRID_STUCK_FRAMES)
 
 
 #: the silhouette-only hybrid's start: the self-initialisation's winner with each limb searched anew
@@ -513,7 +528,7 @@ class HybridSettings:
     finished track's zero-phase low-pass (:class:`TrackSmoothing`, off by default)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
-    apf: HybridSearchSettings = HybridSearchSettings()
+    apf: HybridSearchSettings = field(default_factory=_hybrid_apf)
     keypoints: KeypointSettings = KeypointSettings()
     initialization: InitSettings = field(default_factory=_hybrid_init)
     keep_particles: bool = False
