@@ -148,6 +148,10 @@ class HybridTracker(LocalTracker):
         two_cue = settings.keypoints.two_cue
         self.two_cue = TwoCueState(two_cue) if self.cue is not None and two_cue.enabled else None
 
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
+        super().initialize(chi, alpha)
+        self.streak = np.zeros(len(self.chains), int)   # a new track: no chain flagged yet
+
     @property
     def budget(self) -> SearchBudget:
         return SearchBudget(self.settings.particles, self.settings.layers, tuple(self.weights.terms))
