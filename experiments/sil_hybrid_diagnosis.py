@@ -80,9 +80,9 @@ class Recorder:
         self.before: dict[int, np.ndarray] = {}
         inner = tracker.search
 
-        def search(frame, chi, predicted, free, obs=None):
+        def search(frame, chi, predicted, free, obs=None, **kwargs):
             self.before[frame.index] = np.array(chi)
-            return inner(frame, chi, predicted, free, obs)
+            return inner(frame, chi, predicted, free, obs, **kwargs)
 
         tracker.search = search
 
@@ -134,7 +134,9 @@ def run(seq_path: Path, start: str, frames: int, seed: int, tracker_name: str, o
             "per_joint_mm": {n: round(float(err[:, k].mean()), 1) for k, n in enumerate(names)},
             "per_joint_frame0_mm": {n: round(float(err[0, k]), 1) for k, n in enumerate(names)},
             "swapped_frames": swapped_frames(names, est, truth),
-            "flagged_frames": flagged, "apf": calls}
+            "flagged_frames": flagged, "apf": calls,
+            "heading_turns": {int(f): a for f, a in getattr(tracker, "heading_turns", {}).items()},
+            "stuck_searches": list(getattr(tracker, "stuck_searches", []))}
 
 
 def summary(r: dict) -> str:
@@ -149,7 +151,8 @@ def summary(r: dict) -> str:
             f"{r['frames1_9_mm']:.1f}, 10- {r['frames10_mm']:.1f}; worst {worst}; "
             f"frame0 worst {', '.join(f'{k} {v:.0f}' for k, v in w0)}; swapped frames {sw}; "
             f"flagged {len(r['flagged_frames'])}, APF {len(r['apf'])} kept {len(acc)} "
-            f"(joints lower {len(helped)}, higher {len(hurt)})")
+            f"(joints lower {len(helped)}, higher {len(hurt)}); turned {len(r.get('heading_turns', {}))}, "
+            f"stuck searches {len(r.get('stuck_searches', []))}")
 
 
 def main(argv=None) -> None:

@@ -33,6 +33,7 @@ from mocap.trackers.apf import anneal, perturb
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import SearchBudget
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
+from mocap.trackers.heading import flagged_chains, turned_by
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
@@ -85,6 +86,11 @@ class RestartFirstLayer:
         return out
 
 
+#: the share of a stuck limb chain's search's first layer that draws the chain's angles anew (all of
+#: those from the motion library when there is one): a quarter stays near the tracked pose
+STUCK_RESTART = 0.75
+
+
 def turned(shaped, chi: np.ndarray) -> np.ndarray:
     """The pose (D,) turned 180 degrees about the vertical (z) through its pelvis."""
     T = se3_exp(np.asarray(chi[:6], np.float64))
@@ -129,13 +135,22 @@ class HybridTracker(LocalTracker):
         self.library, self.restart_from_library = library, restart_fraction(a.restart_from_library)
         self.patrol = int(a.patrol)
         self.patrol_agreement, self.patrol_margin = float(a.patrol_agreement), float(a.patrol_margin)
+        self.heading_chains, self.heading_degrees = int(a.heading_chains), tuple(map(float, a.heading_angles))
+        self.heading_turns: dict[int, float] = {}    # frame -> the turn (deg) the heading search kept
+        self.stuck_frames, self.stuck_particles = int(a.stuck_frames), int(a.stuck_particles)
+        self.stuck_searches: list[int] = []             # frames whose repair was the stuck chains' search
         self.chains = limb_chains(body)
+        self.streak = np.zeros(len(self.chains), int)   # frames in a row each limb chain was flagged
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
         self.shape_prior: np.ndarray | None = None      # the silhouettes' shape, the keypoint fits' prior
         self.shape_moved = False         # a silhouette shape refinement was kept since the last keypoint fit
         two_cue = settings.keypoints.two_cue
         self.two_cue = TwoCueState(two_cue) if self.cue is not None and two_cue.enabled else None
+
+    def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
+        super().initialize(chi, alpha)
+        self.streak = np.zeros(len(self.chains), int)   # a new track: no chain flagged yet
 
     @property
     def budget(self) -> SearchBudget:
@@ -247,21 +262,46 @@ class HybridTracker(LocalTracker):
             return None
         return lambda chi: self.cue.lines(self.shaped, chi, obs)
 
-    def search(self, frame: Frame, chi: np.ndarray, predicted: np.ndarray, free: np.ndarray, obs=None):
-        """The APF over the ``free`` DOFs from ``chi``: (pose, anneal trace, energy)."""
+    def search(self, frame: Frame, chi: np.ndarray, predicted: np.ndarray, free: np.ndarray, obs=None,
+               stuck: bool = False):
+        """The APF over the ``free`` DOFs from ``chi``: (pose, anneal trace, energy). ``stuck``: a
+        limb chain flagged ``apf.stuck_frames`` frames in a row; the search has
+        ``apf.stuck_particles`` particles, and three quarters of its first layer take the searched
+        angles from the motion library (:class:`RestartFirstLayer`)."""
         target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        settings, restart, from_library = self.settings, self.restart, self.restart_from_library
+        if stuck:
+            settings = dataclasses.replace(settings, particles=self.stuck_particles)
+            restart, from_library = STUCK_RESTART, (1.0 if self.library is not None else 0.0)
         markers = None
         if obs is not None:
             marker_energy = self.cue.energy(self.shaped, obs)
             markers = lambda x: self.cue.scaled(marker_energy, x)       # noqa: E731
         energy = FrameEnergy(self.weights, self.sil, target, predicted, self.prior, markers=markers)
-        chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, self.settings, self.rng,
-                              propagate=RestartFirstLayer(self.restart, free, self.library,
-                                                          self.restart_from_library),
+        chi_apf, apf = anneal(energy, chi, self.std0, self.body.limits, settings, self.rng,
+                              propagate=RestartFirstLayer(restart, free, self.library, from_library),
                               free=free,
                               keep_particles=self.keep_particles,
                               root_point=self.shaped.rest_joints[0])
         return chi_apf, apf, energy
+
+    def search_heading(self, frame: Frame, chi: np.ndarray, obs=None) -> np.ndarray:
+        """The pose ``chi`` (D,) turned about the vertical through its pelvis by each of
+        ``apf.heading_angles`` and refined by the local step from each; of those and ``chi``, the
+        one with the lowest mean per-view E_S (plus the marker likelihood with the keypoint cue),
+        recorded in ``heading_turns`` when turned: the limb search's start where most chains are
+        flagged (:mod:`mocap.trackers.heading`)."""
+        turned_poses = turned_by(self.shaped.rest_joints[0], chi, np.deg2rad(self.heading_degrees))
+        fitted = [self.local_step(frame, c, extra=self.keypoint_lines(obs))[0] for c in turned_poses]
+        poses = np.stack([chi, *fitted])
+        target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+        e = self.sil.per_view(poses, target)[:, target.valid].mean(axis=1)
+        if obs is not None:
+            e = e + self.cue.scaled(self.cue.energy(self.shaped, obs), poses)
+        best = int(np.argmin(e))
+        if best:
+            self.heading_turns[frame.index] = self.heading_degrees[best - 1]
+        return poses[best]
 
     def patrol_check(self, frame: Frame, check: LimbCheck) -> LimbCheck | None:
         """On every ``patrol``-th frame whose check flagged nothing, the check with one limb chain
@@ -349,6 +389,8 @@ class HybridTracker(LocalTracker):
                 check = dataclasses.replace(check, flagged=flagged,
                                             names=[self.body.joint_names[j] for j in np.flatnonzero(flagged)])
         t2 = time.perf_counter()
+        self.streak = np.array([(self.streak[i] + 1) * bool(check.flagged[[root, *limbs]].any())
+                                for i, (root, limbs) in enumerate(self.chains)], int)
         patrol = self.patrol_check(frame, check)
         decision = Misalignment.of(check, apf_called=bool(check.names) or patrol is not None,
                                    patrol=patrol is not None)
@@ -357,7 +399,12 @@ class HybridTracker(LocalTracker):
         if decision.apf_called:
             free = self.detector.free_dofs(patrol or check)
             chi_local = chi
-            chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs)
+            if self.heading_chains and flagged_chains(self.chains, check.flagged) >= self.heading_chains:
+                chi = self.search_heading(frame, chi, obs)
+            stuck = bool(self.stuck_frames and patrol is None and (self.streak >= self.stuck_frames).any())
+            if stuck:
+                self.stuck_searches.append(frame.index)
+            chi_apf, apf, energy = self.search(frame, chi, predicted, free, obs, stuck=stuck)
             target = energy.target
             t3 = time.perf_counter()
             chi, refine = self.local_step(frame, chi_apf, extra=self.keypoint_lines(obs),

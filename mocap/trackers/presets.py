@@ -66,8 +66,10 @@ KEYPOINT_ACTIVE_LIMITS = True
 #: dev split among 2, 3, 4, 6 and 8 Hz (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid's pose")
 KEYPOINT_SMOOTHING_HZ = 4.0
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
-#: the silhouette-only hybrid's start were chosen without keypoints)
+#: the silhouette-only hybrid's start were chosen without keypoints; nor its repair's wide search of a
+#: limb chain flagged frames in a row, apf.stuck_frames)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
+                     apf=replace(HybridSettings().apf, stuck_frames=0),
                      local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
                      smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),
                      keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,

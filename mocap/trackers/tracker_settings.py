@@ -429,7 +429,16 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     or not); ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame
     with nothing flagged one limb chain in turn is searched all the same (0: off), its pose kept
     only where E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of
-    the views."""
+    the views. ``heading_chains`` = N: where the check flags at least N limb chains at once, the
+    repair first turns the local step's pose about the vertical through its pelvis by each of
+    ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
+    whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
+    did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
+    torso: :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged
+    on N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
+    of its first layer take the flagged chains' angles from the motion library (0: off; a limb
+    wrong from the start is flagged frame after frame while the usual search, a few library
+    draws among 25 particles, never finds it)."""
 
     particles: int = 25
     layers: int = 10
@@ -440,6 +449,10 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     patrol: int = 0
     patrol_agreement: float = 0.0
     patrol_margin: float = 0.0
+    heading_chains: int = 0
+    heading_angles: tuple[float, ...] = (-30.0, -15.0, 15.0, 30.0)
+    stuck_frames: int = 0
+    stuck_particles: int = 100
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -450,14 +463,36 @@ class HybridSearchSettings(SilhouetteSearchSettings):
         check(self, "patrol", self.patrol >= 0, "an integer >= 0 frames")
         check(self, "patrol_agreement", 0.0 <= self.patrol_agreement <= 1.0, "[0, 1]")
         check(self, "patrol_margin", 0.0 <= self.patrol_margin < 1.0, "[0, 1)")
+        check(self, "heading_chains", self.heading_chains >= 0, "an integer >= 0 chains (0: off)")
+        check(self, "stuck_frames", self.stuck_frames >= 0, "an integer >= 0 frames (0: off)")
+        check(self, "stuck_particles", self.stuck_particles >= 2, "an integer >= 2")
+        angles = self.heading_angles
+        check(self, "heading_angles", isinstance(angles, tuple) and len(angles) >= 1
+              and all(isinstance(a, int | float) and math.isfinite(a) and abs(a) <= 180 for a in angles),
+              "a list of at least one angle in [-180, 180] degrees")
+
+
+#: the silhouette-only hybrid's local step solved within the joint limits (``active_limits``), chosen on
+#: the real-motion dev split together with HYBRID_STUCK_FRAMES (issue 34 item 4: docs/results/surface.md,
+#: "Silhouette-only hybrid: repair and start over frames"); ``hybrid_kp`` had it already
+HYBRID_ACTIVE_LIMITS = True
+#: ... and its repair's wide search for a limb chain flagged this many frames in a row
+#: (HybridSearchSettings.stuck_frames; ``hybrid_kp`` keeps it off: not measured with keypoints)
+HYBRID_STUCK_FRAMES = 3
 
 
 def _hybrid_local() -> LocalStepSettings:
     """The hybrid's local step: the misalignment check also charges observed pixels the model
-    leaves unexplained to the nearest limb chain (0: the paper's one-sided check), and the
-    shape is refined while tracking."""
+    leaves unexplained to the nearest limb chain (0: the paper's one-sided check), the shape is
+    refined while tracking, and each step is solved within the joint limits."""
     return LocalStepSettings(misalignment=MisalignmentSettings(unexplained=0.005),
-                             shape=ShapeRefinement(every=10))
+                             shape=ShapeRefinement(every=10), active_limits=HYBRID_ACTIVE_LIMITS)
+
+
+def _hybrid_apf() -> HybridSearchSettings:
+    """The hybrid's repair search: a limb chain flagged HYBRID_STUCK_FRAMES frames in a row gets the
+    wide search."""
+    return HybridSearchSettings(stuck_frames=HYBRID_STUCK_FRAMES)
 
 
 #: the silhouette-only hybrid's start: the self-initialisation's winner with each limb searched anew
@@ -493,7 +528,7 @@ class HybridSettings:
     finished track's zero-phase low-pass (:class:`TrackSmoothing`, off by default)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
-    apf: HybridSearchSettings = HybridSearchSettings()
+    apf: HybridSearchSettings = field(default_factory=_hybrid_apf)
     keypoints: KeypointSettings = KeypointSettings()
     initialization: InitSettings = field(default_factory=_hybrid_init)
     keep_particles: bool = False

@@ -165,7 +165,7 @@ def test_lists_become_tuples_and_nested_mappings_nested_settings(body, rig):
 
 
 @pytest.mark.parametrize(("name", "overrides", "pattern"), [
-    ("hybrid", {"apf": {"partcles": 5}}, r"unknown setting 'apf\.partcles' .*did you mean apf\.particles\?"),
+    ("hybrid", {"apf": {"partcles": 5}}, r"'apf\.partcles' .*did you mean apf\.particles[,?]"),
     ("apf", {"energy": {"smooth": 0.1}}, r"'energy\.smooth' .*allowed: silhouette, smoothness, prior"),
     ("local", {"misalignment": {"treshold": 0.1}}, r"'misalignment\.treshold'.*misalignment\.threshold"),
     ("marker_apf", {"init": {"particles": 1}},
