@@ -313,11 +313,12 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
 
     # version 6: the pose searches' first coarse_layers layers on a cheaper E_S (coarser masks,
     # a coarser mesh), built once like the others
-    early = settings.coarse_layers
-    if early:
+    early, early_shape = settings.coarse_layers, settings.coarse_shape_layers
+    if early or early_shape:
         early_scale = min(1.0, settings.coarse_resolution / float(np.max(rig.sizes)))
         early_target = silhouette_target(masks, early_scale, view_names=tuple(rig.names))
         early_mesh = energy_mesh_for(body, settings.coarse_mesh)
+        early_small = rig.scaled(early_scale)
 
     def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
         sil = energy_for(a, scale, True)          # the energy mesh
@@ -391,11 +392,18 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             # shape_translate also one that moves the body, the lower E_S of the two kept
             # (the larger search loses a little where the mean height was right)
             energy = shape_energy(body, small, chi, target, C, translate=True, compiled=True)
-            c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
+            cheap = (shape_energy(body, early_small, chi, early_target, C, translate=True, compiled=True,
+                                  mesh=early_mesh) if early_shape else None)
+
+            def searched(e=energy, cheap=cheap):
+                """the search's energy; version 6: its first layers at the coarse resolution"""
+                return e if cheap is None else staged_energy(cheap, e, shape_apf.layers, early_shape)
+            e_c = searched()
+            c, _ = run_apf(lambda x, e=e_c: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
                            shape_std * (0.6**r), shape_limits, shape_apf, rng)
             c = np.r_[c, np.zeros(3)]
             if move > 0:
-                m, _ = run_apf(energy, np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
+                m, _ = run_apf(searched(), np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
                                shape_apf, rng)
                 if energy(m[None])[0] < energy(c[None])[0]:
                     c = m

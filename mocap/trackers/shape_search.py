@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.body.dofs import resolve_axes
+from mocap.body.energy_mesh import EnergyMesh
 from mocap.body.kinematics import chain_transforms
 from mocap.body.lbs import lbs
 from mocap.body.model import BodyModel
@@ -74,7 +75,8 @@ def posed_vertices(body: BodyModel, chis: np.ndarray, shapes: np.ndarray) -> np.
 
 
 def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, components: int,
-                 translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False):
+                 translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False,
+                 mesh: EnergyMesh | None = None):
     """E_S as a function of the first ``components`` shape coefficients: a function of
     (P, components) -> (P,), the mean over frames of E_S with the poses chis (N, D) (or one
     pose (D,)) held, against ``targets`` (one :class:`SilhouetteTarget` per pose, at ``rig``'s
@@ -84,14 +86,16 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
     the floor). ``compiled``: the compiled kernel of :mod:`mocap.energy.fused` (rasterise and
     chamfer in one pass per particle-view, as :class:`SilhouetteEnergy` runs it: the same
     energies up to summation order) when numba imports, instead of the scanline rasterizer
-    and :func:`chamfer_energy` (which the trackers' shape refinement keeps)."""
+    and :func:`chamfer_energy` (which the trackers' shape refinement keeps). ``mesh``: an
+    :class:`~mocap.body.energy_mesh.EnergyMesh` rasterised instead of the full mesh (None)."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
     if isinstance(targets, SilhouetteTarget):
         targets = [targets]
     if len(targets) != len(chis):
         raise ValueError(f"{len(chis)} poses for {len(targets)} silhouette targets")
-    raster = get_rasterizer(body.faces, body.num_vertices)
-    kernel = (fused.FusedSilhouetteEnergy(body.faces, body.num_vertices)
+    faces, num_vertices = (body.faces, body.num_vertices) if mesh is None else (mesh.faces, mesh.num_vertices)
+    raster = get_rasterizer(faces, num_vertices)
+    kernel = (fused.FusedSilhouetteEnergy(faces, num_vertices)
               if compiled and fused.numba_available() else None)
     base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
 
@@ -102,6 +106,8 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
         total = np.zeros(len(a))
         for chi, target in zip(chis, targets, strict=True):
             verts = posed_vertices(body, np.repeat(chi[None], len(a), axis=0), shapes)
+            if mesh is not None:
+                verts = mesh.apply(verts)
             if translate:
                 verts = verts + a[:, None, components:components + 3].astype(verts.dtype)
             if kernel is not None:

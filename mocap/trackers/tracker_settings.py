@@ -103,6 +103,8 @@ class InitSettings:
                                   # (version 6, issue 38); 0: off (version 3: every layer the same)
     coarse_resolution: int = 128  # px (longest side) of the early layers' E_S
     coarse_mesh: int = 500        # triangles of the early layers' mesh (mocap.body.energy_mesh)
+    coarse_shape_layers: int = 0  # the first this many layers of every shape search scored at
+                                  # coarse_resolution px on the coarse_mesh; 0: off (version 3)
     shape_pose_searches: int = 0  # after everything, this many annealed searches over the pose and the
                                   # first shape_components coefficients together, each kept where the
                                   # fine E_S falls (:mod:`mocap.trackers.start_shape`); 0: off
@@ -129,6 +131,8 @@ class InitSettings:
         check(self, "retrieval_draws", self.retrieval_draws >= 0, "an integer >= 0")
         check(self, "coarse_layers", 0 <= self.coarse_layers < self.pose_layers,
               f"an integer in [0, pose_layers = {self.pose_layers}) (0: off)")
+        check(self, "coarse_shape_layers", 0 <= self.coarse_shape_layers < self.shape_layers,
+              f"an integer in [0, shape_layers = {self.shape_layers}) (0: off)")
         check(self, "coarse_resolution", self.coarse_resolution >= 16, "an integer >= 16 (px)")
         check(self, "coarse_mesh", self.coarse_mesh >= 4, "an integer >= 4 (triangles)")
         check(self, "shape_pose_searches", self.shape_pose_searches >= 0, "an integer >= 0 (0: off)")

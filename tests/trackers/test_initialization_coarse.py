@@ -106,3 +106,21 @@ def test_the_coarse_settings_are_in_the_cache_key_only_when_on():
     assert key(InitSettings(coarse_layers=0, coarse_resolution=96)) == off     # off: not in the key
     assert key(InitSettings(coarse_layers=7)) != off
     assert key(InitSettings(coarse_layers=7, coarse_resolution=96)) != key(InitSettings(coarse_layers=7))
+
+
+def test_the_shape_energy_on_a_coarse_mesh_equals_the_silhouette_energy_of_that_shape(walk):
+    """Two paths: the shape search's energy (full-mesh posing of each shape, then the mesh) and
+    :class:`SilhouetteEnergy` of the shaped body on the same mesh (its skinning basis)."""
+    from mocap.trackers.shape_search import shape_energy
+
+    body, seq = walk
+    rig, chi, masks = seq.rig, seq.gt.chi[0], seq.masks[0]
+    mesh = energy_mesh_for(body, 500)
+    scale = 96 / float(np.max(rig.sizes))
+    target = silhouette_target(masks, scale)
+    alphas = np.random.default_rng(1).normal(0, 0.8, (3, body.num_shape))
+    alphas[:, 4:] = 0.0
+    e = shape_energy(body, rig.scaled(scale), chi, target, 4, compiled=True, mesh=mesh)(alphas[:, :4])
+    want = [SilhouetteEnergy(body.shaped(a), rig, scale, mesh=mesh)(chi[None], target)[0] for a in alphas]
+    np.testing.assert_allclose(e, want, rtol=1e-4)
+    assert len(set(np.round(e, 6))) == 3                      # three shapes, three energies
