@@ -34,6 +34,9 @@ the fine E_S that ranks hypotheses keep the full mesh (the shape changes the who
 and the ranking is where feet, hands and the face decide). What does not change between
 hypotheses is built once: the downscaled masks and their distance transforms (coarse and
 fine), the observed contours, the contour matcher, and one energy per shape and resolution.
+With ``coarse_layers`` / ``coarse_shape_layers`` > 0 (off by default: tried on dev as version 6,
+not chosen, docs/results/speed.md) the pose / shape searches' first layers score a cheaper E_S
+(``coarse_resolution`` px, ``coarse_mesh`` triangles; :func:`staged_energy`).
 ``progress(stage, fraction)`` reports the searches done while it runs.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
