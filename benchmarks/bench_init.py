@@ -21,6 +21,13 @@ running this file with PYTHONPATH pointing at each in turn::
         PYTHONPATH=$root .venv/bin/python benchmarks/bench_init.py --data $d \
         --label $root --out /tmp/ab.jsonl; done; done
 
+``--rank '[[128, 500], [96, 500]]'``: instead of the starts, the rank agreement of cheaper E_S
+(resolution px, mesh triangles) with the pose searches' own (256 px, the 2,000-triangle energy
+mesh) on real particles: the batches of a start's pose searches (``rounds`` 1, ``keep`` 1) of the
+first sequence, 60 of them drawn, scored by each; printed: CPU ms per particle (8 views), the
+median Spearman rank correlation per batch (all, layers 1-7, layers 8-10), the overlap of the 15
+lowest, and the search energy's rank of the cheap energy's best particle (issue 38, version 6).
+
 ``--profile FILE``: cProfile of the (first) initialisation in CPU seconds, its top lines printed. ``--init
 JSON``: initialiser settings (:class:`~mocap.trackers.tracker_settings.InitSettings` fields)
 changed for the run, e.g. ``'{"rounds": 1, "arm_abductions": [-0.6, 0.8]}'`` (the checkout
@@ -101,6 +108,68 @@ def run_one(data: str, seed: int, tracker: str, threads: int, profile: str | Non
             "chi": [float(x) for x in chi], "alpha": [float(x) for x in alpha]}
 
 
+def rank_agreement(data: str, seed: int, variants: list) -> None:
+    """Print how cheaper E_S variants (px, triangles) rank the particles of real pose searches."""
+    from scipy.stats import spearmanr
+
+    from mocap.body.energy_mesh import energy_mesh_for
+    from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
+    from mocap.trackers import initialization as init
+
+    cfg = compose("track", [f"data={data}", "tracker=apf_prior", f"seed={seed}", "init.mode=tracker"])
+    body = build(cfg.body)
+    seq = build(cfg.data, body=body)
+    rig, masks = seq.rig, frame_of(seq, 0).masks
+    batches, run_apf = [], init.run_apf
+
+    def recorded(energy, center, *args, **kw):
+        layer = [0]
+
+        def scored(x):
+            batches.append((layer[0], x.copy()))
+            layer[0] += 1
+            return energy(x)
+        return run_apf(scored, center, *args, **kw)
+
+    init.run_apf = recorded
+    settings = init.InitSettings(rounds=1, keep=1)
+    with thread_budget(1):
+        try:
+            init.initialize_from_silhouettes(body, rig, masks, np.random.default_rng(seed), settings)
+        finally:
+            init.run_apf = run_apf
+        pose = [b for b in batches if len(b[1]) == settings.pose_particles]
+        drawn = np.random.default_rng(1).choice(len(pose), min(60, len(pose)), replace=False)
+        picked = [pose[i] for i in drawn]
+        shaped = body.shaped()
+
+        def energy(px, faces):
+            scale = px / float(np.max(rig.sizes))
+            e = SilhouetteEnergy(shaped, rig, scale, mesh=energy_mesh_for(body, faces))
+            target = silhouette_target(masks, scale)
+            return lambda x: e(x, target)
+
+        def timed(f):
+            t = time.process_time()
+            out = [f(x) for _, x in picked]
+            return out, 1e3 * (time.process_time() - t) / (len(picked) * settings.pose_particles)
+
+        ref, ms_ref = timed(energy(settings.resolution, settings.energy_mesh))
+        print(f"{data}: {len(pose)} pose-search batches, {len(picked)} scored; the search's E_S "
+              f"{ms_ref:.3f} ms per particle")
+        for px, faces in variants:
+            es, ms = timed(energy(px, faces))
+            rho = np.array([spearmanr(a, b)[0] for a, b in zip(ref, es, strict=True)])
+            early = np.array([m < 7 for m, _ in picked])
+            overlap = np.mean([len(set(np.argsort(a)[:15]) & set(np.argsort(b)[:15])) / 15
+                               for a, b in zip(ref, es, strict=True)])
+            rank = np.median([np.argsort(np.argsort(a))[np.argmin(b)] for a, b in zip(ref, es, strict=True)])
+            print(f"  {px} px, {faces} triangles: {ms:.3f} ms ({ms_ref / ms:.1f}x cheaper); Spearman median "
+                  f"{np.median(rho):.3f} (layers 1-7 {np.median(rho[early]):.3f}, 8-10 "
+                  f"{np.median(rho[~early]):.3f}); 15 lowest shared {overlap:.2f}; "
+                  f"its best's rank {rank:.0f}", flush=True)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", default=MISMATCH, help="data configs, comma-separated; or mismatch, dev, test")
@@ -111,10 +180,15 @@ def main() -> None:
     p.add_argument("--out", default=None, help="append one JSON line per sequence to this file")
     p.add_argument("--profile", default=None, help="cProfile the first initialisation into this file")
     p.add_argument("--init", default=None, help='initialiser settings changed, JSON (e.g. \'{"rounds": 1}\')')
+    p.add_argument("--rank", default=None, help="cheaper E_S variants [[px, triangles], ...], JSON: "
+                   "their rank agreement with the search's E_S on the first sequence (no starts)")
     a = p.parse_args()
     init = {k: tuple(v) if isinstance(v, list) else v for k, v in json.loads(a.init or "{}").items()}
     names = {"mismatch": MISMATCH, "dev": DEV, "test": TEST}
     data = [d for part in a.data.split(",") for d in names.get(part, part).split(",") if d]
+    if a.rank:
+        rank_agreement(data[0], a.seed, json.loads(a.rank))
+        return
     for i, d in enumerate(data):
         row = run_one(d, a.seed, a.tracker, a.threads, a.profile if i == 0 else None, init)
         row["label"] = a.label

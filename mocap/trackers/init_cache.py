@@ -70,17 +70,24 @@ RETRIEVAL_FIELDS = ("search", "retrieval_resolution", "retrieval_headings", "ret
 SHAPE_POSE_FIELDS = ("shape_pose_searches", "shape_pose_particles", "shape_pose_layers",
                      "shape_pose_pose_scale", "shape_pose_shape_std")
 
+#: version 6's cheaper early layers, left out of the cache key while off (``coarse_layers`` and
+#: ``coarse_shape_layers`` 0): version 3's starts keep their keys
+COARSE_FIELDS = ("coarse_layers", "coarse_resolution", "coarse_mesh", "coarse_shape_layers")
+
 
 def settings_text(settings) -> str:
     """``repr(settings)``, less the fields of the optional steps that are off: those of
     :data:`RETRIEVAL_FIELDS` where ``settings.search`` is "anneal" and those of
-    :data:`SHAPE_POSE_FIELDS` where ``settings.shape_pose_searches`` is 0 (the dataclass's own
+    :data:`SHAPE_POSE_FIELDS` where ``settings.shape_pose_searches`` is 0 and those of
+    :data:`COARSE_FIELDS` where ``coarse_layers`` and ``coarse_shape_layers`` are 0 (the dataclass's own
     format, so a start's key is the one computed before those fields existed)."""
     if not dataclasses.is_dataclass(settings):
         return repr(settings)
     off = set(RETRIEVAL_FIELDS) if getattr(settings, "search", None) == "anneal" else set()
     if getattr(settings, "shape_pose_searches", None) == 0:
         off |= set(SHAPE_POSE_FIELDS)
+    if getattr(settings, "coarse_layers", None) == 0 and getattr(settings, "coarse_shape_layers", 0) == 0:
+        off |= set(COARSE_FIELDS)
     kept = (f"{f.name}={getattr(settings, f.name)!r}" for f in dataclasses.fields(settings)
             if f.repr and f.name not in off)
     return f"{type(settings).__qualname__}({', '.join(kept)})"

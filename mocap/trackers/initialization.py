@@ -34,6 +34,9 @@ the fine E_S that ranks hypotheses keep the full mesh (the shape changes the who
 and the ranking is where feet, hands and the face decide). What does not change between
 hypotheses is built once: the downscaled masks and their distance transforms (coarse and
 fine), the observed contours, the contour matcher, and one energy per shape and resolution.
+With ``coarse_layers`` / ``coarse_shape_layers`` > 0 (off by default: tried on dev as version 6,
+not chosen, docs/results/speed.md) the pose / shape searches' first layers score a cheaper E_S
+(``coarse_resolution`` px, ``coarse_mesh`` triangles; :func:`staged_energy`).
 ``progress(stage, fraction)`` reports the searches done while it runs.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
@@ -190,6 +193,24 @@ def scan_limbs(chi: np.ndarray, energy, fine_energy, limbs: list[np.ndarray], li
     return chi, changed
 
 
+def staged_energy(coarse: Callable[[np.ndarray], np.ndarray], fine: Callable[[np.ndarray], np.ndarray],
+                  layers: int, coarse_layers: int) -> Callable[[np.ndarray], np.ndarray]:
+    """An energy (P, D) -> (P,) for one annealed search of ``layers`` layers: its first
+    ``coarse_layers`` calls answered by ``coarse``, the others by ``fine`` (the search calls
+    its energy once per layer, so call k scores layer k mod layers). The early layers spread
+    the particles wide and only their ranking matters (the weights are normalised by the
+    layer's energy spread); the last layers, which place the estimate, see the search's own
+    energy."""
+    calls = [0]
+
+    def energy(x: np.ndarray) -> np.ndarray:
+        m = calls[0] % layers
+        calls[0] += 1
+        return coarse(x) if m < coarse_layers else fine(x)
+
+    return energy
+
+
 def swap_limbs(chi: np.ndarray, perm: np.ndarray, sign: np.ndarray, limits: np.ndarray) -> np.ndarray:
     """The pose with its left and right joint angles exchanged (root unchanged), in the limits."""
     out = np.asarray(chi, np.float64).copy()
@@ -254,10 +275,13 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             shapes[key] = body.shaped(a)
         return shapes[key]
 
-    def energy_for(a: np.ndarray, at: float, coarse: bool) -> SilhouetteEnergy:
-        key = (np.asarray(a, np.float64).tobytes(), at, coarse)
+    def energy_for(a: np.ndarray, at: float, coarse: bool, on=None) -> SilhouetteEnergy:
+        """E_S of shape a at scale ``at``: on the energy mesh (coarse) or the full one, or on
+        the mesh ``on`` where given."""
+        on = (mesh if coarse else None) if on is None else on
+        key = (np.asarray(a, np.float64).tobytes(), at, id(on))
         if key not in energies:
-            energies[key] = SilhouetteEnergy(shaped_for(a), rig, at, mesh=mesh if coarse else None)
+            energies[key] = SilhouetteEnergy(shaped_for(a), rig, at, mesh=on)
         return energies[key]
 
     # 2. heading search with the mean body in the rest pose (full mesh: 12 poses)
@@ -290,11 +314,25 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             std * 0.5, settings, rng, library, root_point=sil.shaped.rest_joints[0])
         return chi
 
+    # version 6: the pose searches' first coarse_layers layers on a cheaper E_S (coarser masks,
+    # a coarser mesh), built once like the others
+    early, early_shape = settings.coarse_layers, settings.coarse_shape_layers
+    if early or early_shape:
+        early_scale = min(1.0, settings.coarse_resolution / float(np.max(rig.sizes)))
+        early_target = silhouette_target(masks, early_scale, view_names=tuple(rig.names))
+        early_mesh = energy_mesh_for(body, settings.coarse_mesh)
+        early_small = rig.scaled(early_scale)
+
     def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
         sil = energy_for(a, scale, True)          # the energy mesh
+        if early:
+            cheap = energy_for(a, early_scale, False, on=early_mesh)
 
         def search(x0, free=None):
-            return run_apf(lambda x: sil(x, target), x0, spread, body.limits, apf, rng, free=free,
+            energy = lambda x: sil(x, target)                                      # noqa: E731
+            if early:
+                energy = staged_energy(lambda x: cheap(x, early_target), energy, apf.layers, early)
+            return run_apf(energy, x0, spread, body.limits, apf, rng, free=free,
                            root_point=sil.shaped.rest_joints[0])[0]
 
         for free in groups:                       # partitioned: torso first, then each limb
@@ -357,11 +395,18 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             # shape_translate also one that moves the body, the lower E_S of the two kept
             # (the larger search loses a little where the mean height was right)
             energy = shape_energy(body, small, chi, target, C, translate=True, compiled=True)
-            c, _ = run_apf(lambda x, e=energy: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
+            cheap = (shape_energy(body, early_small, chi, early_target, C, translate=True, compiled=True,
+                                  mesh=early_mesh) if early_shape else None)
+
+            def searched(e=energy, cheap=cheap):
+                """the search's energy; version 6: its first layers at the coarse resolution"""
+                return e if cheap is None else staged_energy(cheap, e, shape_apf.layers, early_shape)
+            e_c = searched()
+            c, _ = run_apf(lambda x, e=e_c: e(np.c_[x, np.zeros((len(x), 3))]), a[:C],
                            shape_std * (0.6**r), shape_limits, shape_apf, rng)
             c = np.r_[c, np.zeros(3)]
             if move > 0:
-                m, _ = run_apf(energy, np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
+                m, _ = run_apf(searched(), np.r_[a[:C], np.zeros(3)], move_std * (0.6**r), move_limits,
                                shape_apf, rng)
                 if energy(m[None])[0] < energy(c[None])[0]:
                     c = m

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocap.body.dofs import resolve_axes
+from mocap.body.energy_mesh import EnergyMesh
 from mocap.body.kinematics import chain_transforms
 from mocap.body.lbs import lbs
 from mocap.body.model import BodyModel
@@ -98,7 +99,7 @@ def particle_energies(body: BodyModel, rig: Rig, target: SilhouetteTarget, chis:
 
 def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, components: int,
                  translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False,
-                 per_view: bool = False):
+                 per_view: bool = False, mesh: EnergyMesh | None = None):
     """E_S as a function of the first ``components`` shape coefficients: a function of
     (P, components) -> (P,), the mean over frames of E_S with the poses chis (N, D) (or one
     pose (D,)) held, against ``targets`` (one :class:`SilhouetteTarget` per pose, at ``rig``'s
@@ -110,14 +111,16 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
     energies up to summation order) when numba imports, instead of the scanline rasterizer
     and :func:`chamfer_energy` (which the trackers' shape refinement keeps). ``per_view``: the
     function returns instead each pose's E_S per particle and view, N of (P, C), NaN in the
-    target's invalid views (:func:`particle_energies`)."""
+    target's invalid views (:func:`particle_energies`). ``mesh``: an
+    :class:`~mocap.body.energy_mesh.EnergyMesh` rasterised instead of the full mesh (None)."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
     if isinstance(targets, SilhouetteTarget):
         targets = [targets]
     if len(targets) != len(chis):
         raise ValueError(f"{len(chis)} poses for {len(targets)} silhouette targets")
-    raster = get_rasterizer(body.faces, body.num_vertices)
-    kernel = (fused.FusedSilhouetteEnergy(body.faces, body.num_vertices)
+    faces, num_vertices = (body.faces, body.num_vertices) if mesh is None else (mesh.faces, mesh.num_vertices)
+    raster = get_rasterizer(faces, num_vertices)
+    kernel = (fused.FusedSilhouetteEnergy(faces, num_vertices)
               if compiled and fused.numba_available() else None)
     base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
 
@@ -127,7 +130,7 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
         shapes[:, :components] = a[:, :components]
         shift = a[:, components:components + 3] if translate else None
         return [particle_energies(body, rig, target, np.repeat(chi[None], len(a), axis=0), shapes, shift,
-                                  kernel=kernel, raster=raster)
+                                  mesh=mesh, kernel=kernel, raster=raster)
                 for chi, target in zip(chis, targets, strict=True)]
 
     if per_view:

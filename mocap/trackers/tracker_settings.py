@@ -97,6 +97,14 @@ class InitSettings:
     retrieval_samples: int = 40   # proposals per partition and sweep of the coordinate search
     retrieval_sweeps: int = 3     # sweeps of the coordinate search on the keep best candidates
     retrieval_draws: int = 100    # uniform draws of each limb's angles beside the library's (first sweep)
+    coarse_layers: int = 0        # the first this many layers of every pose search (the hypotheses'
+                                  # and the rounds') scored by a cheaper E_S: at coarse_resolution px
+                                  # on a coarse_mesh-triangle mesh; the last layers by the search's own
+                                  # (version 6, issue 38); 0: off (version 3: every layer the same)
+    coarse_resolution: int = 128  # px (longest side) of the early layers' E_S
+    coarse_mesh: int = 500        # triangles of the early layers' mesh (mocap.body.energy_mesh)
+    coarse_shape_layers: int = 0  # the first this many layers of every shape search scored at
+                                  # coarse_resolution px on the coarse_mesh; 0: off (version 3)
     shape_pose_searches: int = 0  # after everything, this many annealed searches over the pose and the
                                   # first shape_components coefficients together, each kept where the
                                   # fine E_S falls (:mod:`mocap.trackers.start_shape`); 0: off
@@ -121,6 +129,12 @@ class InitSettings:
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")
         check(self, "retrieval_samples", self.retrieval_samples >= 1, "an integer >= 1")
         check(self, "retrieval_draws", self.retrieval_draws >= 0, "an integer >= 0")
+        check(self, "coarse_layers", 0 <= self.coarse_layers < self.pose_layers,
+              f"an integer in [0, pose_layers = {self.pose_layers}) (0: off)")
+        check(self, "coarse_shape_layers", 0 <= self.coarse_shape_layers < self.shape_layers,
+              f"an integer in [0, shape_layers = {self.shape_layers}) (0: off)")
+        check(self, "coarse_resolution", self.coarse_resolution >= 16, "an integer >= 16 (px)")
+        check(self, "coarse_mesh", self.coarse_mesh >= 4, "an integer >= 4 (triangles)")
         check(self, "shape_pose_searches", self.shape_pose_searches >= 0, "an integer >= 0 (0: off)")
         check(self, "shape_pose_particles", self.shape_pose_particles >= 2, "an integer >= 2")
         check(self, "shape_pose_layers", self.shape_pose_layers >= 1, "an integer >= 1")
