@@ -53,8 +53,9 @@ def test_keypoint_weight_zero_is_the_hybrid_bit_for_bit(body, seq):
     assert PRESETS["hybrid_kp"].keypoints.weight > 0
     start = folded_arm(body, seq.gt.chi[0])
     runs = []
-    # hybrid_kp's local step also holds angles at their limits (active_limits): matched to the hybrid's
-    for name, extra in (("hybrid", {}), ("hybrid_kp", {"keypoints": {"weight": 0.0},
+    # hybrid_kp's local step also holds angles at their limits (active_limits), its own (widened) limits:
+    # matched to the hybrid's
+    for name, extra in (("hybrid", {}), ("hybrid_kp", {"keypoints": {"weight": 0.0}, "joint_limits": "",
                                                        "local": {**FAST["local"], "active_limits": False}})):
         t = make_tracker(name, body=body, rig=seq.rig, rng=np.random.default_rng(3), **{**FAST, **extra})
         chi, alpha, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)

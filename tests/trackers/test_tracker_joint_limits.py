@@ -51,8 +51,11 @@ def test_the_hybrid_tracks_within_its_own_limits_and_starts_on_the_bodys(body, t
     assert np.rad2deg(t.body.limits[j, 0]) == pytest.approx(-60.0)
     assert t.start_body is body and body.limits[j, 0] > np.deg2rad(-60.0)
     assert t.initializer().start.start.body is body              # the silhouette start: the body's limits
-    plain = make_tracker("hybrid_kp", body=body, rig=rig, rng=np.random.default_rng(0))
-    assert plain.body is body and plain.start_body is body
+    own = make_tracker("hybrid_kp", body=body, rig=rig, rng=np.random.default_rng(0), joint_limits="")
+    assert own.body is body and own.start_body is body
+    preset = make_tracker("hybrid_kp", body=body, rig=rig, rng=np.random.default_rng(0))   # chosen on dev
+    np.testing.assert_array_equal(preset.body.limits, read_limits(body, WIDENED))
+    assert make_tracker("hybrid", body=body, rig=rig, rng=np.random.default_rng(0)).body is body
 
 
 @pytest.mark.parametrize("table, match", [
