@@ -42,7 +42,8 @@ def main(argv=None) -> None:
     from mocap.trackers.joint_limits import tracker_body
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("folders", nargs="+", type=Path, help="folders holding finished runs (metrics.json)")
+    p.add_argument("folders", nargs="+", type=Path, help="folders holding finished runs (metrics.json); "
+                   "each its own rows")
     p.add_argument("--limits", default="widened",
                    help="the tracker's joint_limits ('widened' or a JSON file)")
     p.add_argument("--cache", type=Path, default=Path("multirun/widened_oracles.json"))
@@ -66,7 +67,7 @@ def main(argv=None) -> None:
                 print(f"{key}: {cache[key]} (the body's: {m['oracle']['raw_mm']:.2f}, "
                       f"{m['surface_oracle_mm']:.2f})", flush=True)
             w = cache[key]
-            rows[(m["tracker"], m["data"])].append(
+            rows[(f"{m['tracker']} ({folder.name})", m["data"])].append(
                 (m["mpjpe_mm"], m["mpjpe_mm"] / m["oracle"]["raw_mm"], m["mpjpe_mm"] / w["joints_mm"],
                  m["surface_to_mesh_mm"], m["surface_to_mesh_mm"] / m["surface_oracle_mm"],
                  m["surface_to_mesh_mm"] / w["surface_mm"], m.get("frames_lost", 0)))
