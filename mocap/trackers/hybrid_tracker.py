@@ -35,6 +35,7 @@ from mocap.trackers.contract import SearchBudget
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.heading import flagged_chains, turned_by
 from mocap.trackers.initialization import mirror_map, swap_limbs
+from mocap.trackers.joint_limits import tracker_body
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
 from mocap.trackers.shape_search import shifted
@@ -125,6 +126,8 @@ class HybridTracker(LocalTracker):
 
     def __init__(self, body: BodyModel, rig: Rig, rng: np.random.Generator, settings: HybridSettings,
                  prior: PosePrior | None = None, library: np.ndarray | None = None, name: str = "hybrid"):
+        self.start_body = body             # the silhouette start's (its cache key does not hold limits)
+        body = tracker_body(body, settings.joint_limits)
         super().__init__(body, rig, settings.local, name=name, rng=rng)
         self.tracker_settings, self.init_settings = settings, settings.initialization
         self.hybrid_settings = a = settings.apf
@@ -158,9 +161,13 @@ class HybridTracker(LocalTracker):
 
     def initializer(self, cache=None):
         """The silhouette initialisation (cached in ``cache``), then :meth:`refine_initial`."""
-        from mocap.trackers.init_cache import Refined
+        from mocap.trackers.init_cache import Cached, Refined, SilhouetteStart
 
-        return Refined(super().initializer(cache), self.refine_initial)
+        if self.start_body is self.body:
+            return Refined(super().initializer(cache), self.refine_initial)
+        start = SilhouetteStart(self.start_body, self.rig, self.init_settings, self.init_rng,
+                                library=self.library)
+        return Refined(Cached(start, cache), self.refine_initial)
 
     def check_sequence(self, seq) -> None:
         """A ValueError before any work when ``seq`` has no masks, or (the keypoint cue on) no

@@ -65,6 +65,10 @@ KEYPOINT_ACTIVE_LIMITS = True
 #: its finished track smoothed (zero-phase 4th-order Butterworth at this cut-off, Hz), chosen on the same
 #: dev split among 2, 3, 4, 6 and 8 Hz (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid's pose")
 KEYPOINT_SMOOTHING_HZ = 4.0
+#: its own joint limits (the tracker's only: the body, its oracles and the other trackers keep the
+#: body's): those widened from the training motion (mocap/trackers/assets), chosen on the same dev split
+#: (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid, next stop")
+KEYPOINT_JOINT_LIMITS = "widened"
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints; nor its repair's wide search of a
 #: limb chain flagged frames in a row, apf.stuck_frames)
@@ -72,6 +76,7 @@ _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
                      apf=replace(HybridSettings().apf, stuck_frames=0),
                      local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
                      smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),
+                     joint_limits=KEYPOINT_JOINT_LIMITS,
                      keypoints=replace(HybridSettings().keypoints, weight=KEYPOINT_WEIGHT,
                                        shape_std=KEYPOINT_SHAPE_STD, shape_frames=KEYPOINT_SHAPE_FRAMES,
                                        two_cue=_TWO_CUE))

@@ -539,7 +539,11 @@ class HybridSettings:
     start's limbs get the search a misaligned limb gets while tracking, which the check after
     the start never asks for
     (:meth:`~mocap.trackers.hybrid_tracker.HybridTracker.refine_initial`). ``smoothing``: the
-    finished track's zero-phase low-pass (:class:`TrackSmoothing`, off by default)."""
+    finished track's zero-phase low-pass (:class:`TrackSmoothing`, off by default).
+    ``joint_limits``: the tracker's own joint limits ('': the body's; ``widened``: those widened
+    from the training motion, shipped per body; else a JSON file {dof: [lo, hi] degrees}:
+    :mod:`mocap.trackers.joint_limits`); the silhouette start and everything outside the tracker
+    (oracles, other trackers) keep the body's."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = field(default_factory=_hybrid_apf)
@@ -548,3 +552,4 @@ class HybridSettings:
     keep_particles: bool = False
     start_search: bool = False
     smoothing: TrackSmoothing = TrackSmoothing()
+    joint_limits: str = ""
