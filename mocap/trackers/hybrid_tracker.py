@@ -161,13 +161,9 @@ class HybridTracker(LocalTracker):
 
     def initializer(self, cache=None):
         """The silhouette initialisation (cached in ``cache``), then :meth:`refine_initial`."""
-        from mocap.trackers.init_cache import Cached, Refined, SilhouetteStart
+        from mocap.trackers.init_cache import Refined
 
-        if self.start_body is self.body:
-            return Refined(super().initializer(cache), self.refine_initial)
-        start = SilhouetteStart(self.start_body, self.rig, self.init_settings, self.init_rng,
-                                library=self.library)
-        return Refined(Cached(start, cache), self.refine_initial)
+        return Refined(super().initializer(cache), self.refine_initial)
 
     def check_sequence(self, seq) -> None:
         """A ValueError before any work when ``seq`` has no masks, or (the keypoint cue on) no

@@ -245,17 +245,23 @@ class SilhouetteInitialisation:
     """Mixin of the silhouette trackers: their self-initialisation from a frame's masks
     (``initializer``: :class:`SilhouetteStart`) and the validation of
     an initial pose. Needs ``body``, ``rig``, ``init_rng``, ``init_settings``; ``library``
-    (below) is the motion library its start draws limb hypotheses from."""
+    (below) is the motion library its start draws limb hypotheses from, ``start_body`` the body
+    it fits."""
 
     #: poses (T, D) (NaN: no value) the start's limb hypotheses draw from
     #: (:class:`SilhouetteStart`'s ``library``); None: uniform draws within the joint limits.
     #: A tracker with a motion library sets it (the hybrid: its restarts' library).
     library: np.ndarray | None = None
+    #: the body the start fits; None: the tracker's ``body``. A tracker that tracks with its own
+    #: joint limits sets it to the body it was given (the hybrid's ``joint_limits``): the start's
+    #: cache key holds no limits, so a start is the same whatever limits the tracking has.
+    start_body = None
 
     def initializer(self, cache=None):
         """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
         ``cache`` (None: not cached)."""
-        return Cached(SilhouetteStart(self.body, self.rig, self.init_settings, self.init_rng,
+        body = self.body if self.start_body is None else self.start_body
+        return Cached(SilhouetteStart(body, self.rig, self.init_settings, self.init_rng,
                                       library=self.library), cache)
 
     def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
