@@ -29,8 +29,14 @@ def turned_by(rest_pelvis: np.ndarray, chi: np.ndarray, angles: np.ndarray) -> n
     return out
 
 
-def flagged_chains(chains: list[tuple[int, list[int]]], flagged: np.ndarray) -> int:
-    """How many limb chains (``chains``: (root joint, its limbs), :func:`~mocap.local.misalignment.
-    limb_chains`) have a flagged joint (``flagged`` (J,) bool) among their limbs or root."""
+def chains_flagged(chains: list[tuple[int, list[int]]], flagged: np.ndarray) -> np.ndarray:
+    """(C,) bool: whether each limb chain (``chains``: (root joint, its limbs),
+    :func:`~mocap.local.misalignment.limb_chains`) has a flagged joint (``flagged`` (J,) bool)
+    among its limbs or root."""
     flagged = np.asarray(flagged, bool)
-    return sum(bool(flagged[[root, *limbs]].any()) for root, limbs in chains)
+    return np.array([flagged[[root, *limbs]].any() for root, limbs in chains], bool)
+
+
+def flagged_chains(chains: list[tuple[int, list[int]]], flagged: np.ndarray) -> int:
+    """How many limb chains have a flagged joint (:func:`chains_flagged`)."""
+    return int(chains_flagged(chains, flagged).sum())

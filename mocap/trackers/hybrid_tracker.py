@@ -33,7 +33,7 @@ from mocap.trackers.apf import anneal, perturb
 from mocap.trackers.base import Estimate, Frame
 from mocap.trackers.contract import SearchBudget
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
-from mocap.trackers.heading import flagged_chains, turned_by
+from mocap.trackers.heading import chains_flagged, flagged_chains, turned_by
 from mocap.trackers.initialization import mirror_map, swap_limbs
 from mocap.trackers.joint_limits import tracker_body
 from mocap.trackers.keypoint_cue import KeypointCue, check_detections
@@ -392,8 +392,7 @@ class HybridTracker(LocalTracker):
                 check = dataclasses.replace(check, flagged=flagged,
                                             names=[self.body.joint_names[j] for j in np.flatnonzero(flagged)])
         t2 = time.perf_counter()
-        self.streak = np.array([(self.streak[i] + 1) * bool(check.flagged[[root, *limbs]].any())
-                                for i, (root, limbs) in enumerate(self.chains)], int)
+        self.streak = (self.streak + 1) * chains_flagged(self.chains, check.flagged)
         patrol = self.patrol_check(frame, check)
         decision = Misalignment.of(check, apf_called=bool(check.names) or patrol is not None,
                                    patrol=patrol is not None)
