@@ -48,9 +48,8 @@ class StartEnergies:
 
     def __init__(self, body, rig, masks, settings):
         self.body, self.rig, self.settings = body, rig, settings
-        size = float(np.max(rig.sizes))
-        self.fine_scale = min(1.0, settings.select_resolution / size)
-        self.scale = min(1.0, settings.resolution / size)
+        self.fine_scale = rig.scale_for(settings.select_resolution)
+        self.scale = rig.scale_for(settings.resolution)
         names = tuple(rig.names)
         self.fine_target = silhouette_target(masks, self.fine_scale, view_names=names)
         self.target = silhouette_target(masks, self.scale, view_names=names)

@@ -65,7 +65,7 @@ def floor(data: str, rounds: int, keyframes: int, frames: int | None, seed: int)
     F = seq.num_frames if frames is None else min(frames, seq.num_frames)
     masks = [seq.masks[f] for f in range(F)]
     rng = np.random.default_rng(seed)
-    scale = min(1.0, 256 / float(np.max(rig.sizes)))
+    scale = rig.scale_for(256)
     oracle = fit_oracle(body, gt.joint_names, gt.joints[:F], None if gt.joint_valid is None
                         else gt.joint_valid[:F], gt.skeleton or None)
     alpha, chis = oracle.alpha.copy(), oracle.chi.copy()

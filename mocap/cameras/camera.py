@@ -306,6 +306,13 @@ class Rig:
         """The rig for images resized by ``factor``; see :meth:`Camera.scaled`."""
         return Rig(tuple(c.scaled(factor) for c in self.cameras))
 
+    def scale_for(self, resolution: float) -> float:
+        """The factor (<= 1) that brings the rig's longest image side to ``resolution`` px (images
+        already smaller stay as they are): the internal scale of every silhouette computation."""
+        if resolution <= 0:
+            raise ValueError(f"resolution must be positive, got {resolution}")
+        return min(1.0, resolution / float(np.max(self.sizes)))
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Rig):
             return NotImplemented

@@ -139,7 +139,7 @@ class MisalignmentDetector:
                  baseline_cap: float = _D.baseline_cap, unexplained: float = _D.unexplained,
                  unexplained_window: int = _D.unexplained_window):
         if scale is None:
-            scale = min(1.0, resolution / float(np.max(rig.sizes)))
+            scale = rig.scale_for(resolution)
         self.body, self.threshold, self.scale = body, threshold, scale
         self.relative, self.baseline_cap = relative, baseline_cap
         self.baseline: np.ndarray | None = None

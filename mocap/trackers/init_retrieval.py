@@ -204,14 +204,13 @@ def initialize_by_retrieval(body: BodyModel, rig: Rig, masks: np.ndarray, rng: n
     docstring says how). library: poses (T, D) (NaN: no value) to retrieve from; None: the
     body's procedural prior's (:func:`library_of`)."""
     centre = silhouette_centre(rig, masks)
-    size = float(np.max(rig.sizes))
     names = tuple(rig.names)
     alpha = np.zeros(body.num_shape)
     shaped = body.shaped(alpha)
     mesh = energy_mesh_for(body, settings.energy_mesh)
-    coarse_scale = min(1.0, settings.retrieval_resolution / size)
-    scale = min(1.0, settings.resolution / size)
-    fine_scale = min(1.0, settings.select_resolution / size)
+    coarse_scale = rig.scale_for(settings.retrieval_resolution)
+    scale = rig.scale_for(settings.resolution)
+    fine_scale = rig.scale_for(settings.select_resolution)
     coarse_target = silhouette_target(masks, coarse_scale, view_names=names)
     target = silhouette_target(masks, scale, view_names=names)
     fine_target = silhouette_target(masks, fine_scale, view_names=names)

@@ -258,7 +258,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     if settings.search != "anneal":
         raise ValueError(f"setting search = {settings.search!r}: this is the annealed start; the "
                          "retrieval start is mocap.trackers.init_retrieval.initialize_by_retrieval")
-    scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
+    scale = rig.scale_for(settings.resolution)
     target = silhouette_target(masks, scale, view_names=tuple(rig.names))
     small = rig.scaled(scale)
     # 1. position from the silhouette centroids
@@ -297,7 +297,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     matcher = ContourMatcher(body, rig)
     apf = APFSettings(particles=settings.pose_particles, layers=settings.pose_layers, diffusion=0.7,
                       shrink=0.9)
-    fine_scale = min(1.0, settings.select_resolution / float(np.max(rig.sizes)))
+    fine_scale = rig.scale_for(settings.select_resolution)
     fine_target = silhouette_target(masks, fine_scale, view_names=tuple(rig.names))
 
     def fine_energy(a: np.ndarray, chi: np.ndarray) -> float:
@@ -318,7 +318,7 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     # a coarser mesh), built once like the others
     early, early_shape = settings.coarse_layers, settings.coarse_shape_layers
     if early or early_shape:
-        early_scale = min(1.0, settings.coarse_resolution / float(np.max(rig.sizes)))
+        early_scale = rig.scale_for(settings.coarse_resolution)
         early_target = silhouette_target(masks, early_scale, view_names=tuple(rig.names))
         early_mesh = energy_mesh_for(body, settings.coarse_mesh)
         early_small = rig.scaled(early_scale)

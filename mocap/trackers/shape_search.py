@@ -164,7 +164,7 @@ def refine_shape(body: BodyModel, rig: Rig, alpha: np.ndarray, chis: np.ndarray,
     """Search the first ``settings.components`` coefficients of ``alpha`` and a shared shift on
     keyframes: poses chis (N, D), masks (N of (C, H, W) bool); frames: their indices (reported)."""
     C = min(settings.components, body.num_shape)
-    scale = min(1.0, settings.resolution / float(np.max(rig.sizes)))
+    scale = rig.scale_for(settings.resolution)
     alpha = np.asarray(alpha, np.float64)
     names = tuple(rig.names)
     coarse = [silhouette_target(m, scale, view_names=names) for m in masks]
@@ -177,7 +177,7 @@ def refine_shape(body: BodyModel, rig: Rig, alpha: np.ndarray, chis: np.ndarray,
     new = alpha.copy()
     new[:C] = x[:C]
     shift = x[C:]
-    fine_scale = min(1.0, settings.check_resolution / float(np.max(rig.sizes)))
+    fine_scale = rig.scale_for(settings.check_resolution)
     fine = [silhouette_target(m, fine_scale, view_names=names) for m in masks]
 
     def check(a: np.ndarray, move: np.ndarray) -> float:

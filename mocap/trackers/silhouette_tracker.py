@@ -34,9 +34,7 @@ def diffusion_std(body: BodyModel, translation: float, rotation: float, joint: f
 
 def internal_scale(rig: Rig, resolution: int) -> float:
     """Scale factor that brings the rig's longer image side to ``resolution`` px (<= 1)."""
-    if resolution <= 0:
-        raise ValueError(f"resolution must be positive, got {resolution}")
-    return min(1.0, resolution / float(np.max(rig.sizes)))
+    return rig.scale_for(resolution)
 
 
 class APFTracker(AnnealedStep, SilhouetteInitialisation, OnePerson):

@@ -148,7 +148,7 @@ def silhouette_evidence(body: BodyModel, rig: Rig, alpha: np.ndarray, chis: np.n
     first ``components`` coefficients and a shared world shift (the last 3, m) over E_S of
     ``alpha`` (K,) unshifted, at ``resolution`` px; and the number of frame-views summed."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
-    scale = min(1.0, resolution / float(np.max(rig.sizes)))
+    scale = rig.scale_for(resolution)
     small = rig.scaled(scale)
     targets = [silhouette_target(m, scale, view_names=tuple(rig.names)) for m in masks]
     if len(targets) != len(chis):

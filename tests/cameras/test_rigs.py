@@ -115,3 +115,13 @@ def test_rig_from_config_loads_a_calibration_file(tmp_path):
     assert rig_from_config({"calibration": str(path)}) == rig
     with pytest.raises(ValueError, match="no camera preset"):
         rig_from_config("no_such_rig")
+
+
+def test_the_internal_scale_brings_the_longest_side_to_the_resolution_and_never_enlarges():
+    rig = ring_rig(3, radius=3.0, height=1.5, width=1004, image_height=750, fov_deg=50.0)
+    assert rig.scale_for(256) == pytest.approx(256 / 1004)
+    small = rig.scaled(rig.scale_for(256))
+    assert int(np.max(small.sizes)) == 256                       # cv2.resize's rounding of 1004 * s
+    assert rig.scale_for(2000) == 1.0                            # an image already smaller stays
+    with pytest.raises(ValueError, match="resolution must be positive, got 0"):
+        rig.scale_for(0)
