@@ -69,3 +69,8 @@ fi
 # the project's own bytecode (a no-op when up to date; a checkout's edited files are recompiled)
 .venv/bin/python -m compileall -q -j 0 mocap mocap_cli >/dev/null \
   || echo "[setup] WARNING: mocap did not compile to bytecode" >&2
+# the compiled kernels, built once on every core into numba's cache (mocap/kernel_cache.py): the first
+# run and the test suite's workers then load them instead of each compiling the same ones (a no-op
+# load of a few seconds when built; a stale entry of the list is skipped, compiled at first call)
+.venv/bin/python -m mocap.kernel_cache \
+  || echo "[setup] WARNING: the kernels were not built ahead; each is compiled at its first call" >&2

@@ -57,7 +57,14 @@ def pytest_runtest_logreport(report):
 
 
 def pytest_sessionfinish(session):
+    import os
+
     config = session.config
+    stem = os.environ.get("MOCAP_RECORD_KERNELS")
+    if stem:                                 # the kernels' argument types this process compiled
+        from mocap import kernel_cache       # (mocap/kernel_signatures.json: docs/development.md)
+
+        kernel_cache.record(f"{stem}.{os.environ.get('PYTEST_XDIST_WORKER', 'main')}.json")
     if config.getoption("store_durations", False) and not hasattr(config, "workerinput") and _SECONDS:
         seconds = json.loads(DURATIONS.read_text()) if DURATIONS.is_file() else {}
         seconds.update({f: round(s, 1) for f, s in _SECONDS.items()})
