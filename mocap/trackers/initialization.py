@@ -37,9 +37,9 @@ fine), the observed contours, the contour matcher, and one energy per shape and 
 With ``coarse_layers`` / ``coarse_shape_layers`` > 0 (off by default: tried on dev as version 6,
 not chosen, docs/results/speed.md) the pose / shape searches' first layers score a cheaper E_S
 (``coarse_resolution`` px, ``coarse_mesh`` triangles; :func:`staged_energy`); with
-``coarse_energy`` "points" (version 7, issue 38) that cheaper E_S is the point chamfer of
-:mod:`mocap.energy.point_chamfer`: the ``coarse_mesh``'s vertices projected against the search's own
-masks (no raster per particle).
+``coarse_energy`` "points" (tried on dev as version 7, not chosen) that cheaper E_S is the point
+chamfer of :mod:`mocap.energy.point_chamfer`: the ``coarse_mesh``'s vertices projected against the
+search's own masks (no raster per particle).
 ``progress(stage, fraction)`` reports the searches done while it runs.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped

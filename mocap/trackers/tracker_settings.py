@@ -106,8 +106,9 @@ class InitSettings:
     coarse_shape_layers: int = 0  # the first this many layers of every shape search scored at
                                   # coarse_resolution px on the coarse_mesh; 0: off (version 3)
     coarse_energy: str = "raster"  # the early layers' E_S: "raster" (the compiled E_S, coarser);
-                                  # "points" (version 7: mocap.energy.point_chamfer, the coarse_mesh's
-                                  # vertices against the search's own masks, no raster)
+                                  # "points" (mocap.energy.point_chamfer, the coarse_mesh's vertices
+                                  # against the search's own masks, no raster; tried on dev as
+                                  # version 7, not chosen: docs/results/speed.md)
     coarse_samples: int = 48      # "points": observed contour samples and pixel samples per view, each
     shape_pose_searches: int = 0  # after everything, this many annealed searches over the pose and the
                                   # first shape_components coefficients together, each kept where the
