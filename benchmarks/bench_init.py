@@ -27,6 +27,8 @@ mesh) on real particles: the batches of a start's pose searches (``rounds`` 1, `
 first sequence, 60 of them drawn, scored by each; printed: CPU ms per particle (8 views), the
 median Spearman rank correlation per batch (all, layers 1-7, layers 8-10), the overlap of the 15
 lowest, and the search energy's rank of the cheap energy's best particle (issue 38, version 6).
+A variant ``["points", triangles, samples]``: the point chamfer (:mod:`mocap.energy.point_chamfer`,
+the mesh's vertices, that many contour samples per view) against the search's own masks (version 7).
 
 ``--profile FILE``: cProfile of the (first) initialisation in CPU seconds, its top lines printed. ``--init
 JSON``: initialiser settings (:class:`~mocap.trackers.tracker_settings.InitSettings` fields)
@@ -113,6 +115,7 @@ def rank_agreement(data: str, seed: int, variants: list) -> None:
     from scipy.stats import spearmanr
 
     from mocap.body.energy_mesh import energy_mesh_for
+    from mocap.energy.point_chamfer import PointChamferEnergy
     from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
     from mocap.trackers import initialization as init
 
@@ -143,9 +146,16 @@ def rank_agreement(data: str, seed: int, variants: list) -> None:
         picked = [pose[i] for i in drawn]
         shaped = body.shaped()
 
-        def energy(px, faces):
-            scale = px / float(np.max(rig.sizes))
-            e = SilhouetteEnergy(shaped, rig, scale, mesh=energy_mesh_for(body, faces))
+        def energy(px, faces, samples=None):
+            """px "points": the point chamfer on the faces' mesh vertices, samples contour
+            samples, against the search's own masks (version 7)"""
+            if px == "points":
+                scale = settings.resolution / float(np.max(rig.sizes))
+                e = PointChamferEnergy(shaped, rig, scale, mesh=energy_mesh_for(body, faces),
+                                       samples=samples)
+            else:
+                scale = px / float(np.max(rig.sizes))
+                e = SilhouetteEnergy(shaped, rig, scale, mesh=energy_mesh_for(body, faces))
             target = silhouette_target(masks, scale)
             return lambda x: e(x, target)
 
@@ -157,14 +167,16 @@ def rank_agreement(data: str, seed: int, variants: list) -> None:
         ref, ms_ref = timed(energy(settings.resolution, settings.energy_mesh))
         print(f"{data}: {len(pose)} pose-search batches, {len(picked)} scored; the search's E_S "
               f"{ms_ref:.3f} ms per particle")
-        for px, faces in variants:
-            es, ms = timed(energy(px, faces))
+        for px, faces, *samples in variants:
+            es, ms = timed(energy(px, faces, *samples))
             rho = np.array([spearmanr(a, b)[0] for a, b in zip(ref, es, strict=True)])
             early = np.array([m < 7 for m, _ in picked])
             overlap = np.mean([len(set(np.argsort(a)[:15]) & set(np.argsort(b)[:15])) / 15
                                for a, b in zip(ref, es, strict=True)])
             rank = np.median([np.argsort(np.argsort(a))[np.argmin(b)] for a, b in zip(ref, es, strict=True)])
-            print(f"  {px} px, {faces} triangles: {ms:.3f} ms ({ms_ref / ms:.1f}x cheaper); Spearman median "
+            name = f"points, {faces} triangles, {samples[0]} samples" if px == "points" else \
+                f"{px} px, {faces} triangles"
+            print(f"  {name}: {ms:.3f} ms ({ms_ref / ms:.1f}x cheaper); Spearman median "
                   f"{np.median(rho):.3f} (layers 1-7 {np.median(rho[early]):.3f}, 8-10 "
                   f"{np.median(rho[~early]):.3f}); 15 lowest shared {overlap:.2f}; "
                   f"its best's rank {rank:.0f}", flush=True)

@@ -72,7 +72,8 @@ SHAPE_POSE_FIELDS = ("shape_pose_searches", "shape_pose_particles", "shape_pose_
 
 #: version 6's cheaper early layers, left out of the cache key while off (``coarse_layers`` and
 #: ``coarse_shape_layers`` 0): version 3's starts keep their keys
-COARSE_FIELDS = ("coarse_layers", "coarse_resolution", "coarse_mesh", "coarse_shape_layers")
+COARSE_FIELDS = ("coarse_layers", "coarse_resolution", "coarse_mesh", "coarse_shape_layers", "coarse_energy",
+                 "coarse_samples")
 
 
 def settings_text(settings) -> str:

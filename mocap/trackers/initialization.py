@@ -36,7 +36,10 @@ hypotheses is built once: the downscaled masks and their distance transforms (co
 fine), the observed contours, the contour matcher, and one energy per shape and resolution.
 With ``coarse_layers`` / ``coarse_shape_layers`` > 0 (off by default: tried on dev as version 6,
 not chosen, docs/results/speed.md) the pose / shape searches' first layers score a cheaper E_S
-(``coarse_resolution`` px, ``coarse_mesh`` triangles; :func:`staged_energy`).
+(``coarse_resolution`` px, ``coarse_mesh`` triangles; :func:`staged_energy`); with
+``coarse_energy`` "points" (tried on dev as version 7, not chosen) that cheaper E_S is the point
+chamfer of :mod:`mocap.energy.point_chamfer`: the ``coarse_mesh``'s vertices projected against the
+search's own masks (no raster per particle).
 ``progress(stage, fraction)`` reports the searches done while it runs.
 The diagnostics list every hypothesis with its energies, so a start that may have picked the
 wrong one is visible (``margin``: the winner's lead over the runner-up, relative; over a dropped
@@ -54,6 +57,7 @@ from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel, ShapedBody
 from mocap.body.twists import se3_log
 from mocap.cameras import Rig, pixel_rays
+from mocap.energy.point_chamfer import PointChamfer, PointChamferEnergy, point_weights
 from mocap.energy.silhouette import SilhouetteEnergy, silhouette_target
 from mocap.local.contour import ContourMatcher, observed_contours
 from mocap.local.optimize import optimize_pose
@@ -317,16 +321,31 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
     # version 6: the pose searches' first coarse_layers layers on a cheaper E_S (coarser masks,
     # a coarser mesh), built once like the others
     early, early_shape = settings.coarse_layers, settings.coarse_shape_layers
+    points = settings.coarse_energy == "points"
     if early or early_shape:
-        early_scale = rig.scale_for(settings.coarse_resolution)
-        early_target = silhouette_target(masks, early_scale, view_names=tuple(rig.names))
         early_mesh = energy_mesh_for(body, settings.coarse_mesh)
-        early_small = rig.scaled(early_scale)
+        if points:      # version 7: the point chamfer needs no coarser masks: the search's own
+            early_scale, early_target, early_small = scale, target, small
+        else:
+            early_scale = rig.scale_for(settings.coarse_resolution)
+            early_target = silhouette_target(masks, early_scale, view_names=tuple(rig.names))
+            early_small = rig.scaled(early_scale)
+    point_energies: dict[bytes, PointChamferEnergy] = {}
+
+    def cheap_for(a: np.ndarray):
+        """the early layers' E_S of shape a: the coarse raster, or the point chamfer"""
+        if not points:
+            return energy_for(a, early_scale, False, on=early_mesh)
+        key = np.asarray(a, np.float64).tobytes()
+        if key not in point_energies:
+            point_energies[key] = PointChamferEnergy(shaped_for(a), rig, scale, mesh=early_mesh,
+                                                     samples=settings.coarse_samples)
+        return point_energies[key]
 
     def refine_pose(a: np.ndarray, chi: np.ndarray, spread: np.ndarray) -> np.ndarray:
         sil = energy_for(a, scale, True)          # the energy mesh
         if early:
-            cheap = energy_for(a, early_scale, False, on=early_mesh)
+            cheap = cheap_for(a)
 
         def search(x0, free=None):
             energy = lambda x: sil(x, target)                                      # noqa: E731
@@ -395,8 +414,12 @@ def initialize_from_silhouettes(body: BodyModel, rig: Rig, masks: np.ndarray, rn
             # shape_translate also one that moves the body, the lower E_S of the two kept
             # (the larger search loses a little where the mean height was right)
             energy = shape_energy(body, small, chi, target, C, translate=True, compiled=True)
+            # version 7's points: weighted by the areas of the hypothesis's shape (each particle's
+            # own shape moves them little)
+            point_kernel = (PointChamfer(point_weights(shaped_for(a), early_mesh), settings.coarse_samples)
+                            if points and early_shape else None)
             cheap = (shape_energy(body, early_small, chi, early_target, C, translate=True, compiled=True,
-                                  mesh=early_mesh) if early_shape else None)
+                                  mesh=early_mesh, kernel=point_kernel) if early_shape else None)
 
             def searched(e=energy, cheap=cheap):
                 """the search's energy; version 6: its first layers at the coarse resolution"""

@@ -99,7 +99,7 @@ def particle_energies(body: BodyModel, rig: Rig, target: SilhouetteTarget, chis:
 
 def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, components: int,
                  translate: bool = False, alpha: np.ndarray | None = None, compiled: bool = False,
-                 per_view: bool = False, mesh: EnergyMesh | None = None):
+                 per_view: bool = False, mesh: EnergyMesh | None = None, kernel=None):
     """E_S as a function of the first ``components`` shape coefficients: a function of
     (P, components) -> (P,), the mean over frames of E_S with the poses chis (N, D) (or one
     pose (D,)) held, against ``targets`` (one :class:`SilhouetteTarget` per pose, at ``rig``'s
@@ -112,7 +112,9 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
     and :func:`chamfer_energy` (which the trackers' shape refinement keeps). ``per_view``: the
     function returns instead each pose's E_S per particle and view, N of (P, C), NaN in the
     target's invalid views (:func:`particle_energies`). ``mesh``: an
-    :class:`~mocap.body.energy_mesh.EnergyMesh` rasterised instead of the full mesh (None)."""
+    :class:`~mocap.body.energy_mesh.EnergyMesh` rasterised instead of the full mesh (None).
+    ``kernel``: another kernel with the fused one's call (the initialiser's early layers:
+    :class:`mocap.energy.point_chamfer.PointChamfer`), used instead of it when given."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
     if isinstance(targets, SilhouetteTarget):
         targets = [targets]
@@ -120,8 +122,9 @@ def shape_energy(body: BodyModel, rig: Rig, chis: np.ndarray, targets, component
         raise ValueError(f"{len(chis)} poses for {len(targets)} silhouette targets")
     faces, num_vertices = (body.faces, body.num_vertices) if mesh is None else (mesh.faces, mesh.num_vertices)
     raster = get_rasterizer(faces, num_vertices)
-    kernel = (fused.FusedSilhouetteEnergy(faces, num_vertices)
-              if compiled and fused.numba_available() else None)
+    if kernel is None:
+        kernel = (fused.FusedSilhouetteEnergy(faces, num_vertices)
+                  if compiled and fused.numba_available() else None)
     base = np.zeros(body.num_shape) if alpha is None else np.asarray(alpha, np.float64)
 
     def views(a: np.ndarray) -> list[np.ndarray]:

@@ -105,6 +105,11 @@ class InitSettings:
     coarse_mesh: int = 500        # triangles of the early layers' mesh (mocap.body.energy_mesh)
     coarse_shape_layers: int = 0  # the first this many layers of every shape search scored at
                                   # coarse_resolution px on the coarse_mesh; 0: off (version 3)
+    coarse_energy: str = "raster"  # the early layers' E_S: "raster" (the compiled E_S, coarser);
+                                  # "points" (mocap.energy.point_chamfer, the coarse_mesh's vertices
+                                  # against the search's own masks, no raster; tried on dev as
+                                  # version 7, not chosen: docs/results/speed.md)
+    coarse_samples: int = 48      # "points": observed contour samples and pixel samples per view, each
     shape_pose_searches: int = 0  # after everything, this many annealed searches over the pose and the
                                   # first shape_components coefficients together, each kept where the
                                   # fine E_S falls (:mod:`mocap.trackers.start_shape`); 0: off
@@ -135,6 +140,8 @@ class InitSettings:
               f"an integer in [0, shape_layers = {self.shape_layers}) (0: off)")
         check(self, "coarse_resolution", self.coarse_resolution >= 16, "an integer >= 16 (px)")
         check(self, "coarse_mesh", self.coarse_mesh >= 4, "an integer >= 4 (triangles)")
+        check(self, "coarse_energy", self.coarse_energy in ("raster", "points"), "'raster' or 'points'")
+        check(self, "coarse_samples", self.coarse_samples >= 1, "an integer >= 1")
         check(self, "shape_pose_searches", self.shape_pose_searches >= 0, "an integer >= 0 (0: off)")
         check(self, "shape_pose_particles", self.shape_pose_particles >= 2, "an integer >= 2")
         check(self, "shape_pose_layers", self.shape_pose_layers >= 1, "an integer >= 1")
