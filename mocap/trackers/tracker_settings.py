@@ -486,6 +486,25 @@ class HybridSearchSettings(SilhouetteSearchSettings):
               "a list of at least one angle in [-180, 180] degrees")
 
 
+@dataclass(frozen=True)
+class StartOverFrames:
+    """The silhouette-only hybrid's start chosen over several frames
+    (:mod:`mocap.trackers.start_frames`): with ``frames`` = N > 0, the self-initialisation's pose
+    and its ambiguous alternatives (arms exchanged, legs exchanged, all limbs exchanged, turned 180
+    degrees, turned with all limbs exchanged) are each tracked over frames 0..N by the local step
+    alone, and the one of lowest silhouette energy summed over those frames, where it is lower than
+    the start's by more than the share ``margin``, replaces the start: frames 0..N are tracked
+    again from it (the run's track revised). 0: off (the start as the initialiser gives it)."""
+
+    frames: int = 0
+    margin: float = 0.0
+
+    def __post_init__(self) -> None:
+        check(self, "frames", isinstance(self.frames, int) and 0 <= self.frames <= 30,
+              "an integer in [0, 30] frames (0: off)")
+        check(self, "margin", 0.0 <= self.margin < 1.0, "[0, 1)")
+
+
 #: the silhouette-only hybrid's local step solved within the joint limits (``active_limits``), chosen on
 #: the real-motion dev split together with HYBRID_STUCK_FRAMES (issue 34 item 4: docs/results/surface.md,
 #: "Silhouette-only hybrid: repair and start over frames"); ``hybrid_kp`` had it already
@@ -543,7 +562,9 @@ class HybridSettings:
     ``joint_limits``: the tracker's own joint limits ('': the body's; ``widened``: those widened
     from the training motion, shipped per body; else a JSON file {dof: [lo, hi] degrees}:
     :mod:`mocap.trackers.joint_limits`); the silhouette start and everything outside the tracker
-    (oracles, other trackers) keep the body's."""
+    (oracles, other trackers) keep the body's. ``start_frames``: the silhouette-only start chosen
+    among its ambiguous alternatives over the first frames (:class:`StartOverFrames`; off by
+    default; without the keypoint cue only)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = field(default_factory=_hybrid_apf)
@@ -553,3 +574,4 @@ class HybridSettings:
     start_search: bool = False
     smoothing: TrackSmoothing = TrackSmoothing()
     joint_limits: str = ""
+    start_frames: StartOverFrames = StartOverFrames()
