@@ -440,7 +440,8 @@ class HybridTracker(LocalTracker):
     def choose_start(self, est: Estimate) -> Estimate:
         """The start chosen over the frames kept since it (:meth:`start_tracks`): where another
         hypothesis than the start has the lowest summed E_S by more than ``start_frames.margin``,
-        the tracker starts again from that hypothesis's frame-0 pose and tracks those frames once
+        the tracker starts again from that hypothesis (its pose as it was before the local step, as
+        the start itself) and tracks those frames once
         more (their new estimates in ``revised``, the last one returned); otherwise ``est``, the
         tracking left as it was. ``start_choice``: the report."""
         frames, self.pending = self.pending, None
@@ -450,7 +451,7 @@ class HybridTracker(LocalTracker):
                              "energy": [float(e) for e in found.total], "chosen": names[best]}
         if not best:
             return est
-        chi0 = found.poses[best, 0]
+        chi0 = found.starts[best]
         last = frames[-1].index
         self.stuck_searches = [f for f in self.stuck_searches if f > last]
         self.heading_turns = {f: a for f, a in self.heading_turns.items() if f > last}

@@ -88,9 +88,11 @@ def start_hypotheses(body: BodyModel, rest_pelvis: np.ndarray, chi: np.ndarray
 
 @dataclass(frozen=True)
 class HypothesisTracks:
-    """Each hypothesis's local-step track over the first frames: ``poses`` (H, F, D), the
-    silhouette energy of each frame ``energy`` (H, F) and its sum over the frames ``total`` (H,)."""
+    """Each hypothesis's local-step track over the first frames: the hypotheses ``starts`` (H, D),
+    their tracks ``poses`` (H, F, D) (frame 0: after the local step on it), the silhouette energy of
+    each frame ``energy`` (H, F) and its sum over the frames ``total`` (H,)."""
 
+    starts: np.ndarray
     poses: np.ndarray
     energy: np.ndarray
 
@@ -121,7 +123,7 @@ def track_hypotheses(starts: np.ndarray, frames: Sequence, step: Callable, energ
             poses[h, f] = chi
     for f, frame in enumerate(frames):
         e[:, f] = energy(frame, poses[:, f])
-    return HypothesisTracks(poses, e)
+    return HypothesisTracks(starts, poses, e)
 
 
 def chosen_hypothesis(total: np.ndarray, margin: float = 0.0) -> int:
