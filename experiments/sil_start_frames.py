@@ -27,12 +27,13 @@ from mocap.trackers.run import frame_of
 from mocap.trackers.start_frames import chosen_hypothesis
 
 
-def run(seq_path: Path, seed: int, frames: list[int], margin: float, init_cache: str | None) -> dict:
+def run(seq_path: Path, seed: int, frames: list[int], margin: float, init_cache: str | None,
+        turns: tuple = ()) -> dict:
     body = load_body("paper22")
     seq = folder_sequence(body=body, path=str(seq_path), name=f"real_{seq_path.name}", seed=seed)
     n = max(frames)
     tracker = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng([seed, 1]),
-                           start_frames={"frames": n})
+                           start_frames={"frames": n, "turns": tuple(turns)})
     est0, _ = tracker.initializer(init_cache)(frame_of(seq, 0))
     tracker.begin(frame_of(seq, 0), est0)
     names, found = tracker.start_tracks([frame_of(seq, f) for f in range(n + 1)])
@@ -67,12 +68,13 @@ def main(argv=None) -> None:
     p.add_argument("--seeds", type=int, nargs="+", default=[0])
     p.add_argument("--frames", type=int, nargs="+", default=[5, 10])
     p.add_argument("--margin", type=float, default=0.05)
+    p.add_argument("--turns", type=float, nargs="*", default=[], help="more hypotheses: turned by (deg)")
     p.add_argument("--init-cache", default="outputs/init_cache")
     p.add_argument("--out", type=Path, help="append each run's JSON here (one line each)")
     a = p.parse_args(argv)
     for s in a.sequences:
         for seed in a.seeds:
-            r = run(s, seed, a.frames, a.margin, a.init_cache)
+            r = run(s, seed, a.frames, a.margin, a.init_cache, tuple(a.turns))
             report(r, summary(r), a.out)
 
 

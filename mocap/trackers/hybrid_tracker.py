@@ -422,7 +422,8 @@ class HybridTracker(LocalTracker):
         kept = (self.shaped, self.sil, self.history)
         try:
             self.set_shape(self.start_alpha)
-            starts, names = start_hypotheses(self.body, self.shaped.rest_joints[0], self.start_pose)
+            starts, names = start_hypotheses(self.body, self.shaped.rest_joints[0], self.start_pose,
+                                             self.start_frames.turns)
             plain = [dataclasses.replace(f, images=None) for f in frames]     # no SIFT: the main track's
 
             def step(frame, predicted):

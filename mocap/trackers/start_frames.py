@@ -59,14 +59,15 @@ def swapped(chi: np.ndarray, dofs: np.ndarray, perm: np.ndarray, sign: np.ndarra
     return np.clip(out, limits[:, 0], limits[:, 1])
 
 
-def start_hypotheses(body: BodyModel, rest_pelvis: np.ndarray, chi: np.ndarray
-                     ) -> tuple[np.ndarray, list[str]]:
+def start_hypotheses(body: BodyModel, rest_pelvis: np.ndarray, chi: np.ndarray,
+                     turns: Sequence[float] = ()) -> tuple[np.ndarray, list[str]]:
     """The start ``chi`` (D,) and the alternatives one frame's silhouettes hardly tell from it:
     each left/right limb chain pair exchanged alone (``swap_shoulder``: the arms,
     ``swap_hip``: the legs), all limbs exchanged (``swap_all``), the body turned 180 degrees about
     the vertical through its pelvis (``turned``; ``rest_pelvis`` (3,): the shaped body's pelvis at
-    rest) and turned with all limbs exchanged (``turned_swap_all``: the outline's near twin).
-    Returns (poses (H, D), names (H,)); the first is the start itself (``start``)."""
+    rest) and turned with all limbs exchanged (``turned_swap_all``: the outline's near twin); then
+    the start turned by each of ``turns`` (degrees; ``turned_<deg>``). Returns (poses (H, D),
+    names (H,)); the first is the start itself (``start``)."""
     chi = np.asarray(chi, np.float64)
     perm, sign = mirror_map(body)
     pairs = chain_pairs(body)
@@ -83,6 +84,9 @@ def start_hypotheses(body: BodyModel, rest_pelvis: np.ndarray, chi: np.ndarray
     turn = turned_by(rest_pelvis, chi, np.array([np.pi]))[0]
     poses += [turn, turned_by(rest_pelvis, all_swapped, np.array([np.pi]))[0]]
     names += ["turned", "turned_swap_all"]
+    for deg in turns:
+        poses.append(turned_by(rest_pelvis, chi, np.array([np.deg2rad(deg)]))[0])
+        names.append(f"turned_{deg:g}")
     return np.stack(poses), names
 
 
