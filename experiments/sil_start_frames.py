@@ -28,18 +28,18 @@ from mocap.trackers.start_frames import chosen_hypothesis
 
 
 def run(seq_path: Path, seed: int, frames: list[int], margin: float, init_cache: str | None,
-        turns: tuple = ()) -> dict:
+        turns: tuple = (), restarts: int = 0) -> dict:
     body = load_body("paper22")
     seq = folder_sequence(body=body, path=str(seq_path), name=f"real_{seq_path.name}", seed=seed)
     n = max(frames)
     tracker = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng([seed, 1]),
-                           start_frames={"frames": n, "turns": tuple(turns)})
+                           start_frames={"frames": n, "turns": tuple(turns),
+                                                                  "restarts": restarts})
     est0, _ = tracker.initializer(init_cache)(frame_of(seq, 0))
     tracker.begin(frame_of(seq, 0), est0)
-    names, found = tracker.start_tracks([frame_of(seq, f) for f in range(n + 1)])
+    names, found, shapes = tracker.start_tracks([frame_of(seq, f) for f in range(n + 1)])
     scorer = NameScorer(body, seq.gt.person(0))
-    alpha = np.asarray(est0[0].alpha)
-    err = np.stack([joint_errors(scorer, np.repeat(alpha[None], n + 1, 0), found.poses[h])[1].mean(axis=1)
+    err = np.stack([joint_errors(scorer, np.repeat(shapes[h][None], n + 1, 0), found.poses[h])[1].mean(axis=1)
                     for h in range(len(names))])                                     # (H, n+1) mm
     out = {"data": seq.name, "seed": seed, "hypotheses": names,
            "frame0_mm": [round(float(e), 1) for e in err[:, 0]], "by_frames": {}}
@@ -68,13 +68,14 @@ def main(argv=None) -> None:
     p.add_argument("--seeds", type=int, nargs="+", default=[0])
     p.add_argument("--frames", type=int, nargs="+", default=[5, 10])
     p.add_argument("--margin", type=float, default=0.05)
+    p.add_argument("--restarts", type=int, default=0, help="more self-initialisations (other random states)")
     p.add_argument("--turns", type=float, nargs="*", default=[], help="more hypotheses: turned by (deg)")
     p.add_argument("--init-cache", default="outputs/init_cache")
     p.add_argument("--out", type=Path, help="append each run's JSON here (one line each)")
     a = p.parse_args(argv)
     for s in a.sequences:
         for seed in a.seeds:
-            r = run(s, seed, a.frames, a.margin, a.init_cache, tuple(a.turns))
+            r = run(s, seed, a.frames, a.margin, a.init_cache, tuple(a.turns), a.restarts)
             report(r, summary(r), a.out)
 
 

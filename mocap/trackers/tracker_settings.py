@@ -491,8 +491,9 @@ class StartOverFrames:
     """The silhouette-only hybrid's start chosen over several frames
     (:mod:`mocap.trackers.start_frames`): with ``frames`` = N > 0, the self-initialisation's pose
     and its ambiguous alternatives (arms exchanged, legs exchanged, all limbs exchanged, turned 180
-    degrees, turned with all limbs exchanged; and the start turned by each of ``turns``, degrees
-    about the vertical) are each tracked over frames 0..N by the local step
+    degrees, turned with all limbs exchanged; the start turned by each of ``turns``, degrees
+    about the vertical; and ``restarts`` more self-initialisations of frame 0 from other random
+    states, each with its own shape) are each tracked over frames 0..N by the local step
     alone, and the one of lowest silhouette energy summed over those frames, where it is lower than
     the start's by more than the share ``margin``, replaces the start: frames 0..N are tracked
     again from it (the run's track revised). 0: off (the start as the initialiser gives it)."""
@@ -500,6 +501,7 @@ class StartOverFrames:
     frames: int = 0
     margin: float = 0.0
     turns: tuple[float, ...] = ()
+    restarts: int = 0
 
     def __post_init__(self) -> None:
         check(self, "frames", isinstance(self.frames, int) and 0 <= self.frames <= 30,
@@ -508,6 +510,8 @@ class StartOverFrames:
         check(self, "turns", isinstance(self.turns, tuple) and all(
               isinstance(a, int | float) and math.isfinite(a) and 0 < abs(a) < 360 for a in self.turns),
               "a list of angles in (-360, 360) degrees, none 0")
+        check(self, "restarts", isinstance(self.restarts, int) and 0 <= self.restarts <= 8,
+              "an integer in [0, 8]")
 
 
 #: the silhouette-only hybrid's local step solved within the joint limits (``active_limits``), chosen on
