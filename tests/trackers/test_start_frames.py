@@ -145,3 +145,32 @@ def test_a_start_one_frame_cannot_tell_is_told_over_frames():
     assert chosen_hypothesis(found.total) == 1                              # over frames: the truth
     np.testing.assert_allclose(found.poses[1, :, 6], x)
     np.testing.assert_allclose(found.total[0], np.sum((np.minimum(x, 1.2) - x) ** 2))   # held at -1.2
+
+
+def test_restarts_are_other_random_states_cached_and_leave_the_trackers_draws(body, seq, tmp_path,
+                                                                             monkeypatch):
+    """``restarts`` = 2: two more starts, each from a generator seeded off a copy of the start's (the
+    initialiser replaced by a draw from the generator it is given): different from each other, the same
+    on a second call (served from the cache folder given to the initializer, not computed again), and
+    the tracker's own generator where it was."""
+    from mocap.trackers import initialization
+    from mocap.trackers.run import frame_of
+
+    calls = []
+
+    def compute(body_, rig, masks, rng, settings, progress=None, library=None):
+        calls.append(1)
+        return rng.normal(size=body_.num_dofs), np.zeros(body_.num_shape), {}
+
+    monkeypatch.setattr(initialization, "initialize_from_silhouettes", compute)
+    t = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(5),
+                     start_frames={"frames": 3, "restarts": 2})
+    t.initializer(tmp_path)
+    state = dict(t.init_rng.bit_generator.state)
+    first = t.restarts(frame_of(seq, 0))
+    again = t.restarts(frame_of(seq, 0))
+    assert len(first) == 2 and len(calls) == 2 and len(list(tmp_path.glob("*.npz"))) == 2
+    assert not np.allclose(first[0][0], first[1][0])
+    for (a, _), (b, _) in zip(first, again, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert t.init_rng.bit_generator.state == state
