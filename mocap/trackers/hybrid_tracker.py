@@ -162,6 +162,7 @@ class HybridTracker(LocalTracker):
         self.revised: dict[int, Estimate] = {}       # frame -> estimate tracked again from the chosen start
         self.start_choice: dict | None = None        # the start over frames' report
         self.start_cache = None                      # the start's cache folder (the restarts')
+        self.self_initialised = False                # initializer() asked for (start_frames applies)
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         super().initialize(chi, alpha)
@@ -176,6 +177,7 @@ class HybridTracker(LocalTracker):
         from mocap.trackers.init_cache import Refined
 
         self.start_cache = cache            # the restarts' (``start_frames.restarts``)
+        self.self_initialised = True        # the run starts from this start: start_frames applies
         return Refined(super().initializer(cache), self.refine_initial)
 
     def check_sequence(self, seq) -> None:
@@ -394,11 +396,13 @@ class HybridTracker(LocalTracker):
         return super().revises_tracks or self.start_frames.frames > 0
 
     def begin(self, frame: Frame, initial):
-        """As :class:`OnePerson`'s; with ``start_frames`` on (and no keypoint cue), the start is
-        kept with its frame to be chosen among its alternatives over the next frames."""
+        """As :class:`OnePerson`'s; with ``start_frames`` on, no keypoint cue and a run that starts
+        from the tracker's own self-initialisation (:meth:`initializer` asked for; not a given
+        pose such as ground truth plus noise), the start is kept with its frame to be chosen
+        among its alternatives over the next frames."""
         out = super().begin(frame, initial)
         self.revised, self.start_choice = {}, None
-        if self.start_frames.frames > 0 and self.cue is None:
+        if self.start_frames.frames > 0 and self.cue is None and self.self_initialised:
             self.pending = [frame]
             self.start_pose = np.array(initial[0].chi, np.float64)
             self.start_alpha = np.array(initial[0].alpha, np.float64)

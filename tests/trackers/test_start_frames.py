@@ -97,10 +97,11 @@ def test_bad_settings_are_refused_naming_the_field():
 def run(body, seq, frames: int):
     """The hybrid started at the truth's frame 0 with the arms exchanged."""
     t = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
-                     start_frames={"frames": frames}, **FAST)
+                     start_frames={"frames": frames, "restarts": 0}, **FAST)
     truth = seq.gt.chi[0]
     perm, sign = mirror_map(body)
     wrong = swapped(truth, dict(chain_pairs(body))["shoulder"], perm, sign, body.limits)
+    t.initializer()                         # a self-initialised run (whose start is given here)
     result = run_frames(t, seq, {0: initial_estimate_of(wrong, seq.gt.alpha)})
     return t, np.stack([e.chi for e in result.estimates]), wrong
 
@@ -121,6 +122,18 @@ def test_a_start_with_the_arms_exchanged_is_restarted_from_the_truth(body, seq):
     assert after < 0.3 * before
     _, off, _ = run(body, seq, 0)
     np.testing.assert_array_equal(off[0], wrong)
+
+
+def test_a_run_from_a_given_pose_is_not_chosen_over_frames(body, seq):
+    """Started from a given pose (ground truth plus noise: the tracker's initializer never asked for),
+    the start is the run's, with the setting on."""
+    t = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
+                     start_frames={"frames": 2, "restarts": 0}, **FAST)
+    perm, sign = mirror_map(body)
+    wrong = swapped(seq.gt.chi[0], dict(chain_pairs(body))["shoulder"], perm, sign, body.limits)
+    result = run_frames(t, seq, {0: initial_estimate_of(wrong, seq.gt.alpha)}, frames=3)
+    assert t.start_choice is None and not t.revised
+    np.testing.assert_array_equal(result.estimates[0].chi, wrong)
 
 
 def test_a_start_one_frame_cannot_tell_is_told_over_frames():
