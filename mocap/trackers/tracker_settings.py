@@ -496,7 +496,8 @@ class StartOverFrames:
     states, each with its own shape) are each tracked over frames 0..N by the local step
     alone, and the one of lowest silhouette energy summed over those frames, where it is lower than
     the start's by more than the share ``margin``, replaces the start: frames 0..N are tracked
-    again from it (the run's track revised). 0: off (the start as the initialiser gives it)."""
+    again from it (the run's track revised; a run of N frames or fewer keeps its start). 0: off (the
+    start as the initialiser gives it)."""
 
     frames: int = 0
     margin: float = 0.0
