@@ -136,7 +136,8 @@ def run(seq_path: Path, start: str, frames: int, seed: int, tracker_name: str, o
             "swapped_frames": swapped_frames(names, est, truth),
             "flagged_frames": flagged, "apf": calls,
             "heading_turns": {int(f): a for f, a in getattr(tracker, "heading_turns", {}).items()},
-            "stuck_searches": list(getattr(tracker, "stuck_searches", []))}
+            "stuck_searches": list(getattr(tracker, "stuck_searches", [])),
+            "start_choice": getattr(tracker, "start_choice", None)}
 
 
 def summary(r: dict) -> str:
@@ -152,7 +153,8 @@ def summary(r: dict) -> str:
             f"frame0 worst {', '.join(f'{k} {v:.0f}' for k, v in w0)}; swapped frames {sw}; "
             f"flagged {len(r['flagged_frames'])}, APF {len(r['apf'])} kept {len(acc)} "
             f"(joints lower {len(helped)}, higher {len(hurt)}); turned {len(r.get('heading_turns', {}))}, "
-            f"stuck searches {len(r.get('stuck_searches', []))}")
+            f"stuck searches {len(r.get('stuck_searches', []))}"
+            + (f"; start over frames: {r['start_choice']['chosen']}" if r.get("start_choice") else ""))
 
 
 def main(argv=None) -> None:

@@ -15,6 +15,7 @@ misalignment check, and a search of every limb chain refining the self-initialis
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 
@@ -31,7 +32,7 @@ from mocap.energy.total import FrameEnergy
 from mocap.local.misalignment import LimbCheck, limb_chains
 from mocap.trackers.apf import anneal, perturb
 from mocap.trackers.base import Estimate, Frame
-from mocap.trackers.contract import SearchBudget
+from mocap.trackers.contract import SearchBudget, initial_estimate_of
 from mocap.trackers.diagnostics import Misalignment, StepDiagnostics
 from mocap.trackers.heading import chains_flagged, flagged_chains, turned_by
 from mocap.trackers.initialization import mirror_map, swap_limbs
@@ -40,6 +41,12 @@ from mocap.trackers.keypoint_cue import KeypointCue, check_detections
 from mocap.trackers.local_tracker import LocalTracker
 from mocap.trackers.shape_search import shifted
 from mocap.trackers.silhouette_tracker import diffusion_std, internal_scale
+from mocap.trackers.start_frames import (
+    HypothesisTracks,
+    chosen_hypothesis,
+    start_hypotheses,
+    track_hypotheses,
+)
 from mocap.trackers.tracker_settings import HybridSettings
 from mocap.trackers.two_cue_shape import TwoCueState, fit_two_cue_shape
 
@@ -150,6 +157,12 @@ class HybridTracker(LocalTracker):
         self.shape_moved = False         # a silhouette shape refinement was kept since the last keypoint fit
         two_cue = settings.keypoints.two_cue
         self.two_cue = TwoCueState(two_cue) if self.cue is not None and two_cue.enabled else None
+        self.start_frames = settings.start_frames
+        self.pending: list[Frame] | None = None     # the frames since the start, until it is chosen
+        self.revised: dict[int, Estimate] = {}       # frame -> estimate tracked again from the chosen start
+        self.start_choice: dict | None = None        # the start over frames' report
+        self.start_cache = None                      # the start's cache folder (the restarts')
+        self.self_initialised = False                # initializer() asked for (start_frames applies)
 
     def initialize(self, chi: np.ndarray, alpha: np.ndarray) -> None:
         super().initialize(chi, alpha)
@@ -163,6 +176,8 @@ class HybridTracker(LocalTracker):
         """The silhouette initialisation (cached in ``cache``), then :meth:`refine_initial`."""
         from mocap.trackers.init_cache import Refined
 
+        self.start_cache = cache            # the restarts' (``start_frames.restarts``)
+        self.self_initialised = True        # the run starts from this start: start_frames applies
         return Refined(super().initializer(cache), self.refine_initial)
 
     def check_sequence(self, seq) -> None:
@@ -374,7 +389,127 @@ class HybridTracker(LocalTracker):
         super().set_shape(alpha)
         self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale, mesh=self.energy_mesh)
 
+    @property
+    def revises_tracks(self) -> bool:
+        """With ``start_frames`` on, the first frames' answers may be replaced once the start is
+        chosen over them (:meth:`final_tracks`)."""
+        return super().revises_tracks or self.start_frames.frames > 0
+
+    def begin(self, frame: Frame, initial):
+        """As :class:`OnePerson`'s; with ``start_frames`` on, no keypoint cue and a run that starts
+        from the tracker's own self-initialisation (:meth:`initializer` asked for; not a given
+        pose such as ground truth plus noise), the start is kept with its frame to be chosen
+        among its alternatives over the next frames."""
+        out = super().begin(frame, initial)
+        self.revised, self.start_choice = {}, None
+        if self.start_frames.frames > 0 and self.cue is None and self.self_initialised:
+            self.pending = [frame]
+            self.start_pose = np.array(initial[0].chi, np.float64)
+            self.start_alpha = np.array(initial[0].alpha, np.float64)
+        return out
+
+    def final_tracks(self, tracks):
+        """The tracks with the frames tracked again from a start chosen over frames
+        (``start_frames``) in place of those first answered, then as :class:`LocalTracker`'s."""
+        if self.revised and 0 in tracks:
+            tracks = {**tracks, 0: {**tracks[0], **self.revised}}
+        return super().final_tracks(tracks)
+
     def step(self, frame: Frame) -> Estimate:
+        """The frame's estimate (:meth:`track_step`); with ``start_frames`` = N on, once frames
+        0..N are seen, the start chosen over them (:meth:`choose_start`)."""
+        est = self.track_step(frame)
+        if self.pending is not None:
+            self.pending.append(frame)
+            if len(self.pending) > self.start_frames.frames:
+                est = self.choose_start(est)
+        return est
+
+    def restarts(self, frame: Frame) -> list[tuple[np.ndarray, np.ndarray]]:
+        """``start_frames.restarts`` more silhouette self-initialisations of ``frame`` (the start's
+        settings and body), each from its own generator seeded by a number drawn from a copy of the
+        start's generator (the tracker's own draws unchanged), cached as the start is (in the
+        folder given to :meth:`initializer`). Returns [(pose (D,), shape (K,))]."""
+        from mocap.trackers.init_cache import Cached, SilhouetteStart
+
+        n = self.start_frames.restarts
+        if not n:
+            return []
+        base = int(copy.deepcopy(self.init_rng).integers(2**62))
+        body = self.body if self.start_body is None else self.start_body
+        out = []
+        for k in range(1, n + 1):
+            start = SilhouetteStart(body, self.rig, self.init_settings, np.random.default_rng([base, k]),
+                                    progress=lambda stage, fraction: None, library=self.library)
+            est, _ = Cached(start, self.start_cache)(frame)
+            out.append((np.asarray(est[0].chi, np.float64), np.asarray(est[0].alpha, np.float64)))
+        return out
+
+    def start_tracks(self, frames: list[Frame]):
+        """The start and its alternatives (:func:`~mocap.trackers.start_frames.start_hypotheses`;
+        then the :meth:`restarts`, each with its own shape) each tracked by the local step alone
+        over ``frames`` (the start's frame first; :func:`~mocap.trackers.start_frames.track_hypotheses`:
+        contours only, each with its start's shape), scored by the mean per-view E_S; the tracker's
+        state left as it was. Returns (names (H,), :class:`~mocap.trackers.start_frames.HypothesisTracks`,
+        shapes (H, K))."""
+        kept = (self.shaped, self.sil, self.history)
+        plain = [dataclasses.replace(f, images=None) for f in frames]     # no SIFT: the main track's
+
+        def step(frame, predicted):
+            self.history = [predicted]
+            return self.local_step(frame, predicted)[0]
+
+        def energy(frame, poses):
+            target = silhouette_target(frame.masks, self.scale, view_names=tuple(self.rig.names))
+            return self.sil.per_view(poses, target)[:, target.valid].mean(axis=1)
+
+        try:
+            self.set_shape(self.start_alpha)
+            starts, names = start_hypotheses(self.body, self.shaped.rest_joints[0], self.start_pose,
+                                             self.start_frames.turns)
+            groups = [(self.start_alpha, starts)]
+            for k, (chi, alpha) in enumerate(self.restarts(frames[0]), 1):
+                groups.append((alpha, chi[None]))
+                names.append(f"restart_{k}")
+            found, shapes = [], []
+            for alpha, poses in groups:
+                self.set_shape(alpha)
+                found.append(track_hypotheses(poses, plain, step, energy, self.prediction_damping))
+                shapes += [alpha] * len(poses)
+            merged = HypothesisTracks(*(np.concatenate([getattr(f, k) for f in found])
+                                        for k in ("starts", "poses", "energy")))
+            return names, merged, np.stack(shapes)
+        finally:
+            self.shaped, self.sil, self.history = kept
+
+    def choose_start(self, est: Estimate) -> Estimate:
+        """The start chosen over the frames kept since it (:meth:`start_tracks`): where another
+        hypothesis than the start has the lowest summed E_S by more than ``start_frames.margin``,
+        the tracker starts again from that hypothesis (its pose as it was before the local step, as
+        the start itself) and tracks those frames once
+        more (their new estimates in ``revised``, the last one returned); otherwise ``est``, the
+        tracking left as it was. ``start_choice``: the report."""
+        frames, self.pending = self.pending, None
+        names, found, shapes = self.start_tracks(frames)
+        best = chosen_hypothesis(found.total, self.start_frames.margin)
+        self.start_choice = {"frames": len(frames), "hypotheses": names,
+                             "energy": [float(e) for e in found.total], "chosen": names[best]}
+        if not best:
+            return est
+        chi0, alpha0 = found.starts[best], shapes[best]
+        last = frames[-1].index
+        self.stuck_searches = [f for f in self.stuck_searches if f > last]
+        self.heading_turns = {f: a for f, a in self.heading_turns.items() if f > last}
+        self.initialize(chi0, alpha0)
+        self.revised = {frames[0].index: initial_estimate_of(chi0, alpha0)}
+        for frame in frames[1:]:
+            est = self.track_step(frame)
+            self.revised[frame.index] = est
+        return est
+
+    def track_step(self, frame: Frame) -> Estimate:
+        """The hybrid's step on ``frame``: the local step, the check, the repair where flagged,
+        the shape refinement."""
         if self.shaped is None:
             raise RuntimeError("initialize() the tracker before step()")
         t0 = time.perf_counter()

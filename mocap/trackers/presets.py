@@ -21,6 +21,7 @@ from mocap.trackers.tracker_settings import (
     HybridSettings,
     InitSettings,
     LocalSettings,
+    StartOverFrames,
     TrackSmoothing,
     TwoCueShape,
 )
@@ -70,9 +71,9 @@ KEYPOINT_SMOOTHING_HZ = 4.0
 #: (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid, next stop")
 KEYPOINT_JOINT_LIMITS = "widened"
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
-#: the silhouette-only hybrid's start were chosen without keypoints; nor its repair's wide search of a
-#: limb chain flagged frames in a row, apf.stuck_frames)
-_HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(),
+#: the silhouette-only hybrid's start were chosen without keypoints, as was its start chosen over frames
+#: (start_frames); nor its repair's wide search of a limb chain flagged frames in a row, apf.stuck_frames)
+_HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(), start_frames=StartOverFrames(),
                      apf=replace(HybridSettings().apf, stuck_frames=0),
                      local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
                      smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),

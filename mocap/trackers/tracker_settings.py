@@ -493,6 +493,35 @@ class HybridSearchSettings(SilhouetteSearchSettings):
               "a list of at least one angle in [-180, 180] degrees")
 
 
+@dataclass(frozen=True)
+class StartOverFrames:
+    """The silhouette-only hybrid's start chosen over several frames
+    (:mod:`mocap.trackers.start_frames`): with ``frames`` = N > 0, the self-initialisation's pose
+    and its ambiguous alternatives (arms exchanged, legs exchanged, all limbs exchanged, turned 180
+    degrees, turned with all limbs exchanged; the start turned by each of ``turns``, degrees
+    about the vertical; and ``restarts`` more self-initialisations of frame 0 from other random
+    states, each with its own shape) are each tracked over frames 0..N by the local step
+    alone, and the one of lowest silhouette energy summed over those frames, where it is lower than
+    the start's by more than the share ``margin``, replaces the start: frames 0..N are tracked
+    again from it (the run's track revised; a run of N frames or fewer keeps its start). 0: off (the
+    start as the initialiser gives it)."""
+
+    frames: int = 0
+    margin: float = 0.0
+    turns: tuple[float, ...] = ()
+    restarts: int = 0
+
+    def __post_init__(self) -> None:
+        check(self, "frames", isinstance(self.frames, int) and 0 <= self.frames <= 30,
+              "an integer in [0, 30] frames (0: off)")
+        check(self, "margin", 0.0 <= self.margin < 1.0, "[0, 1)")
+        check(self, "turns", isinstance(self.turns, tuple) and all(
+              isinstance(a, int | float) and math.isfinite(a) and 0 < abs(a) < 360 for a in self.turns),
+              "a list of angles in (-360, 360) degrees, none 0")
+        check(self, "restarts", isinstance(self.restarts, int) and 0 <= self.restarts <= 8,
+              "an integer in [0, 8]")
+
+
 #: the silhouette-only hybrid's local step solved within the joint limits (``active_limits``), chosen on
 #: the real-motion dev split together with HYBRID_STUCK_FRAMES (issue 34 item 4: docs/results/surface.md,
 #: "Silhouette-only hybrid: repair and start over frames"); ``hybrid_kp`` had it already
@@ -533,6 +562,20 @@ def _hybrid_init() -> InitSettings:
                         shape_pose_searches=HYBRID_SHAPE_POSE_SEARCHES)
 
 
+#: the silhouette-only hybrid's start chosen over frames: its exchanged limbs and turns and one more
+#: self-initialisation from another random state, each tracked by the local step over frames 0..5, the lowest
+#: summed E_S kept (StartOverFrames), chosen on the real-motion dev split, seeds 0-2 (issue 34 item 4:
+#: docs/results/surface.md, "Silhouette-only hybrid: starts scored over frames"); ``hybrid_kp`` keeps it off
+HYBRID_START_FRAMES = 5
+HYBRID_START_RESTARTS = 1
+
+
+def _hybrid_start_frames() -> StartOverFrames:
+    """The silhouette-only hybrid's start chosen over its first HYBRID_START_FRAMES frames among its
+    ambiguous alternatives and HYBRID_START_RESTARTS more self-initialisations."""
+    return StartOverFrames(frames=HYBRID_START_FRAMES, restarts=HYBRID_START_RESTARTS)
+
+
 @dataclass(frozen=True)
 class HybridSettings:
     """``hybrid``, the full system of Zhang et al. 2013: the local step every frame
@@ -550,7 +593,9 @@ class HybridSettings:
     ``joint_limits``: the tracker's own joint limits ('': the body's; ``widened``: those widened
     from the training motion, shipped per body; else a JSON file {dof: [lo, hi] degrees}:
     :mod:`mocap.trackers.joint_limits`); the silhouette start and everything outside the tracker
-    (oracles, other trackers) keep the body's."""
+    (oracles, other trackers) keep the body's. ``start_frames``: the silhouette-only start chosen
+    among its ambiguous alternatives and more self-initialisations over the first frames
+    (:class:`StartOverFrames`; off in that dataclass, on here; without the keypoint cue only)."""
 
     local: LocalStepSettings = field(default_factory=_hybrid_local)
     apf: HybridSearchSettings = field(default_factory=_hybrid_apf)
@@ -560,3 +605,4 @@ class HybridSettings:
     start_search: bool = False
     smoothing: TrackSmoothing = TrackSmoothing()
     joint_limits: str = ""
+    start_frames: StartOverFrames = field(default_factory=_hybrid_start_frames)
