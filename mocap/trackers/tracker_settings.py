@@ -206,6 +206,7 @@ class TwoCueShape:
     frame's bone length (the silhouettes' evidence; each view's energy is divided by its value
     at the current shape, its residual scale; the bone lengths by their spread over frames);
     ``length_floor``: the least per-frame spread (m) a bone length is credited with;
+    ``prior``: the weight of the shape model's prior |alpha_1..C|^2 / 2 (1: the model's own);
     ``particles`` x ``layers``: the annealed search over the coefficients and a shared
     ``shift`` (m) of the body, first-layer spread ``std`` (in the keypoints' posterior standard
     deviations: :meth:`~mocap.trackers.two_cue_shape.LengthEvidence.posterior_root`), on silhouettes
@@ -218,6 +219,7 @@ class TwoCueShape:
     aligned_only: bool = True
     components: int = 10
     view_samples: float = 1.0
+    prior: float = 1.0
     length_floor: float = 0.005
     particles: int = 40
     layers: int = 8
@@ -235,6 +237,7 @@ class TwoCueShape:
         check(self, "particles", self.particles >= 2, "an integer >= 2")
         check(self, "view_samples", self.view_samples >= 0, ">= 0 (0: the keypoints alone)")
         check(self, "length_floor", self.length_floor > 0, "> 0 m")
+        check(self, "prior", self.prior >= 0, ">= 0 (1: the model's prior, 0: none)")
         check(self, "std", self.std > 0, "> 0")
         check(self, "shift", self.shift >= 0, ">= 0 m")
 
