@@ -113,6 +113,12 @@ VARIANTS = {
     "kp40": ({}, "kp40"),
     "true_lengths": ({}, "true"),
     "true_lengths_c20": ({"components": 20}, "true"),
+    "polish2000": ({"polish": 2000}, "kp15"),
+    "c20_polish2000": ({"components": 20, "polish": 2000}, "kp15"),
+    "w4_polish2000": ({"view_samples": 4.0, "polish": 2000}, "kp15"),
+    "c20_apf100x15": ({"components": 20, "particles": 100, "layers": 15}, "kp15"),
+    "q6": ({"quadratic": 6}, "kp15"),
+    "q6_c20": ({"quadratic": 6, "components": 20}, "kp15"),
 }
 
 #: bones reported (detection labels)
@@ -195,9 +201,53 @@ def trace(data: str, seed: int, out: Path, variants: list[str] | None = None) ->
              for a, c in BONES if f"{a}-{c}" in pair_names}
         print(name, json.dumps({k: found.report[k] for k in ("alpha_change", "keypoints_only_change", "after")}),
               b, flush=True)
-    rows["fits"] = fits
-    (out / f"{data}-s{seed}-trace.json").write_text(json.dumps(rows, indent=1))
+    path = out / f"{data}-s{seed}-trace.json"
+    earlier = json.loads(path.read_text())["fits"] if path.is_file() else {}
+    rows["fits"] = {**earlier, **fits}
+    path.write_text(json.dumps(rows, indent=1))
     return rows
+
+
+def poses_held(data: str, seed: int, out: Path, steps: int = 2) -> dict:
+    """Does holding the keyframes' poses (tracked with the start's shape) make the silhouettes
+    oppose a shape more than they do? Per shape (the start's, the keypoints' alone fit, the
+    halfway point, the oracles'): the frames' mean per-view E_S (the tracker's resolution) with
+    the poses held, and after ``steps`` local steps (silhouettes and keypoints, as the tracker's)
+    re-fit each keyframe's pose to that shape. Written to ``<out>/<data>-s<seed>-poses.json``."""
+    from mocap.energy.silhouette import silhouette_target
+    from mocap_cli.hydra_edge import build
+
+    from experiments.kp_shape_split import oracle_shapes
+    from mocap.trackers.run import frame_of
+
+    z = np.load(out / f"{data}-s{seed}.npz")
+    traced = json.loads((out / f"{data}-s{seed}-trace.json").read_text())
+    cfg, body, seq = _compose(data, seed, 40, [])
+    tracker = build(cfg.tracker, body=body, rig=seq.rig, rng=np.random.default_rng(seed))
+    shapes = oracle_shapes(body, seq, len(z["every"]), out / "shapes")
+    kp = np.asarray(traced["fits"]["kp_only"]["alpha"])
+    fit = np.asarray(traced["fits"]["as_is"]["alpha"])
+    candidates = {"start": z["alpha"], "two_cue_fit": fit, "halfway_to_keypoints": 0.5 * (z["alpha"] + kp),
+                  "keypoints_only": kp, "joint_oracle": shapes["joint"], "surface_oracle": shapes["surface"]}
+    tracker.initialize(z["chis"][0], z["alpha"])
+    frames = [frame_of(seq, int(f)) for f in z["frames"]]
+    result = {}
+    for name, alpha in candidates.items():
+        tracker.set_shape(np.asarray(alpha, np.float64))
+        held, refit = [], []
+        for frame, chi in zip(frames, z["chis"], strict=True):
+            target = silhouette_target(frame.masks, tracker.scale, view_names=tuple(seq.rig.names))
+            obs = tracker.cue.observe(frame)
+            new = chi
+            for _ in range(steps):
+                new = tracker.local_step(frame, new, extra=tracker.keypoint_lines(obs))[0]
+            e = tracker.sil.per_view(np.stack([chi, new]), target)[:, target.valid].mean(axis=1)
+            held.append(float(e[0]))
+            refit.append(float(e[1]))
+        result[name] = {"held": round(float(np.mean(held)), 3), "refit": round(float(np.mean(refit)), 3)}
+        print(name, result[name], flush=True)
+    (out / f"{data}-s{seed}-poses.json").write_text(json.dumps(result, indent=1))
+    return result
 
 
 def main(argv=None) -> None:
@@ -205,6 +255,7 @@ def main(argv=None) -> None:
     p.add_argument("sequence", help="dev sequence folder name (data/real_motion/dev/...)")
     p.add_argument("--capture", action="store_true")
     p.add_argument("--trace", action="store_true")
+    p.add_argument("--poses", action="store_true", help="E_S of candidate shapes, poses held and re-fitted")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--all", type=int, default=40, help="frames whose triangulated landmarks are kept")
     p.add_argument("--set", nargs="*", default=[], help="tracker overrides key=value (dotted)")
@@ -215,6 +266,8 @@ def main(argv=None) -> None:
         print(capture(a.sequence, a.seed, a.out, a.all, a.set))
     if a.trace:
         trace(a.sequence, a.seed, a.out, a.variants)
+    if a.poses:
+        poses_held(a.sequence, a.seed, a.out)
 
 
 if __name__ == "__main__":

@@ -211,7 +211,9 @@ class TwoCueShape:
     ``shift`` (m) of the body, first-layer spread ``std`` (in the keypoints' posterior standard
     deviations: :meth:`~mocap.trackers.two_cue_shape.LengthEvidence.posterior_root`), on silhouettes
     at ``resolution`` px (longest image side), then at most ``polish`` energy evaluations of
-    Powell's method from its result (0: none)."""
+    Powell's method from its result (0: none), then ``quadratic`` iterations (0: none) of a trust
+    region on a quadratic model of batched samples, first radius ``quadratic_radius`` (the search's
+    units; :mod:`mocap.trackers.quadratic_polish`)."""
 
     frames: int = 0
     every: int = 0
@@ -227,10 +229,14 @@ class TwoCueShape:
     shift: float = 0.02
     resolution: int = 256
     polish: int = 400
+    quadratic: int = 0
+    quadratic_radius: float = 1.0
 
     def __post_init__(self) -> None:
         check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
         check(self, "polish", self.polish >= 0, "an integer >= 0 evaluations (0: none)")
+        check(self, "quadratic", self.quadratic >= 0, "an integer >= 0 iterations (0: none)")
+        check(self, "quadratic_radius", self.quadratic_radius > 0, "> 0 (the search's standard deviations)")
         check(self, "every", self.every >= 0, "an integer >= 0 (0: once)")
         for name in ("keyframes", "components", "layers", "resolution"):
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")

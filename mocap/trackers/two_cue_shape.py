@@ -22,7 +22,10 @@ coefficients and a shared shift of the body:
 - the search: in the coordinates of the keypoints' posterior (each unit one standard deviation
   the bone lengths and the prior leave, :meth:`LengthEvidence.posterior_root`), the annealed
   particle filter (:func:`~mocap.trackers.apf.run_apf`) from the best of the current shape, the
-  keypoints' own fit and the point halfway, then Powell's line searches (scipy) from its result.
+  keypoints' own fit and the point halfway, then Powell's line searches (scipy) from its result,
+  then (``quadratic`` > 0) that many iterations of a trust region on a quadratic model of batched
+  samples (:mod:`mocap.trackers.quadratic_polish`), which goes on where Powell stalls in the
+  silhouettes' pixel noise.
 
 Each term's minimum is a different shape; their sum puts the shape where the directions each
 cue measures are met by that cue (the keypoints' bone lengths, the silhouettes' girth) rather
@@ -44,6 +47,7 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.silhouette import silhouette_target
 from mocap.trackers.apf import run_apf
+from mocap.trackers.quadratic_polish import quadratic_polish
 from mocap.trackers.shape_search import shape_energy
 from mocap.trackers.tracker_settings import APFSettings, TwoCueShape
 
@@ -239,6 +243,13 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
                          options={"maxfev": settings.polish, "xtol": 1e-2, "ftol": 1e-4})
         if found.fun < searched(z)[0]:
             z = found.x
+    polished = None
+    if settings.quadratic:
+        scale = np.r_[np.ones(C), np.full(3, max(settings.shift, 1e-6) / 2)]     # the shift in its spreads
+        v, _, polished = quadratic_polish(lambda u: searched(u * scale), z / scale, settings.quadratic_radius,
+                                          settings.quadratic, rng, lower=limits[:, 0] / scale,
+                                          upper=limits[:, 1] / scale)
+        z = v * scale
     x = shape_of(z)[0]
     x0 = np.r_[alpha[:C], zero]
     new = full(x)[0]
@@ -255,6 +266,8 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
               "keypoints_only_change": float(np.linalg.norm(keypoints_only - alpha)),
               "before": {k: float(v[0]) for k, v in before.items()},
               "after": {k: float(v[0]) for k, v in after.items()}}
+    if polished is not None:
+        report["quadratic"] = polished
     if flag:
         report["flag"] = flag
     return TwoCueFit(new, x[C:C + 3].copy(), report)
