@@ -134,9 +134,8 @@ def trace(data: str, seed: int, out: Path, variants: list[str] | None = None) ->
     from dataclasses import replace
 
     from experiments.kp_shape_split import oracle_shapes
-    from mocap.body.catalogue import rest_point_basis, rigid_pairs
+    from mocap.body.catalogue import landmark_entries, rest_point_basis, rigid_pairs
     from mocap.body.landmarks import LandmarkSet
-    from mocap.body.catalogue import landmark_entries
     from mocap.trackers.presets import preset_settings
     from mocap.trackers.run import frame_of
     from mocap.trackers.two_cue_shape import fit_two_cue_shape, length_evidence
@@ -199,8 +198,8 @@ def trace(data: str, seed: int, out: Path, variants: list[str] | None = None) ->
                       "minus_true_mm": mm(lengths(found.alpha) - true), **found.report}
         b = {f"{a}-{c}": fits[name]["minus_true_mm"][pair_names.index(f"{a}-{c}")]
              for a, c in BONES if f"{a}-{c}" in pair_names}
-        print(name, json.dumps({k: found.report[k] for k in ("alpha_change", "keypoints_only_change", "after")}),
-              b, flush=True)
+        shown = {k: found.report[k] for k in ("alpha_change", "keypoints_only_change", "after")}
+        print(name, json.dumps(shown), b, flush=True)
     path = out / f"{data}-s{seed}-trace.json"
     earlier = json.loads(path.read_text())["fits"] if path.is_file() else {}
     rows["fits"] = {**earlier, **fits}
@@ -214,11 +213,10 @@ def poses_held(data: str, seed: int, out: Path, steps: int = 2) -> dict:
     halfway point, the oracles'): the frames' mean per-view E_S (the tracker's resolution) with
     the poses held, and after ``steps`` local steps (silhouettes and keypoints, as the tracker's)
     re-fit each keyframe's pose to that shape. Written to ``<out>/<data>-s<seed>-poses.json``."""
-    from mocap.energy.silhouette import silhouette_target
-    from mocap_cli.hydra_edge import build
-
     from experiments.kp_shape_split import oracle_shapes
+    from mocap.energy.silhouette import silhouette_target
     from mocap.trackers.run import frame_of
+    from mocap_cli.hydra_edge import build
 
     z = np.load(out / f"{data}-s{seed}.npz")
     traced = json.loads((out / f"{data}-s{seed}-trace.json").read_text())

@@ -43,7 +43,7 @@ def fit_quadratic(d: np.ndarray, e: np.ndarray) -> tuple[float, np.ndarray, np.n
     i, j = np.triu_indices(n)
     H = np.zeros((n, n))
     H[i, j] = q
-    H = H + H.T              # d^T H d / 2 = sum_{i<=j} q_ij d_i d_j: off-diagonal q_ij = H_ij, diagonal q_ii = H_ii / 2
+    H = H + H.T          # d^T H d / 2 = sum_{i<=j} q_ij d_i d_j: off the diagonal q_ij = H_ij, on it H_ii / 2
     return c, g, H
 
 

@@ -43,7 +43,9 @@ def test_the_polish_finds_a_known_minimum_in_a_diagonal_valley():
     that: along the flattest direction 0.1 is half a unit); and bounds are kept."""
     H, x_star = valley(8, 3)
 
-    def energy(x, noise=0.0, rng=np.random.default_rng(5)):
+    rng = np.random.default_rng(5)
+
+    def energy(x, noise=0.0):
         d = np.atleast_2d(x) - x_star
         return 0.5 * np.einsum("pi,ij,pj->p", d, H, d) + noise * rng.uniform(-1, 1, len(d))
 

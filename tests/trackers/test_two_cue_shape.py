@@ -87,7 +87,8 @@ def test_the_prior_weight_scales_the_prior_and_at_zero_gives_the_least_squares_l
     assert np.abs(ev.lengths(lsq)[0] - true).max() < 1e-4
     held = ev.fit(np.zeros(body.num_shape), C, iterations=50, prior=1.0)
     assert np.abs(ev.lengths(held)[0] - true).max() > 10 * np.abs(ev.lengths(lsq)[0] - true).max()
-    noisy = length_evidence(body, landmarks, pts + np.random.default_rng(4).normal(0, 0.005, pts.shape), 0.005)
+    noise = np.random.default_rng(4).normal(0, 0.005, pts.shape)
+    noisy = length_evidence(body, landmarks, pts + noise, 0.005)
     p = 0.3
     fit = noisy.fit(np.zeros(body.num_shape), C, prior=p)
 
