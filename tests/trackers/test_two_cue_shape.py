@@ -142,11 +142,12 @@ def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
 def test_hybrid_kp_fits_its_shape_to_both_cues_after_its_keypoint_refit_frames():
     """The preset: the two-cue fit on, after the frames of the keypoint refit it replaces, every
     one of them in the silhouette term."""
-    from mocap.trackers.presets import KEYPOINT_SHAPE_FRAMES, PRESETS, TWO_CUE_VIEW_SAMPLES
+    from mocap.trackers.presets import KEYPOINT_SHAPE_FRAMES, PRESETS, TWO_CUE_QUADRATIC, TWO_CUE_VIEW_SAMPLES
 
     two_cue = PRESETS["hybrid_kp"].keypoints.two_cue
     assert two_cue.enabled and two_cue.frames == two_cue.keyframes == KEYPOINT_SHAPE_FRAMES
     assert not two_cue.aligned_only and two_cue.view_samples == TWO_CUE_VIEW_SAMPLES
+    assert two_cue.quadratic == TWO_CUE_QUADRATIC > 0 and TwoCueShape().quadratic == 0
     assert not PRESETS["hybrid"].keypoints.two_cue.enabled
 
 
