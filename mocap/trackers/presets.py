@@ -56,9 +56,15 @@ KEYPOINT_SHAPE_FRAMES = 15
 #: each view counted as this many samples: chosen on the same dev split among 9 variants (view samples
 #: 2 to 128, aligned frames only or all; issue 34: docs/results/surface.md, "Two-cue shape over many
 #: frames")
-TWO_CUE_VIEW_SAMPLES = 16.0
+#: (16 then; 8 since its fit converges, below)
+TWO_CUE_VIEW_SAMPLES = 8.0
+#: that fit's last step: this many iterations of a trust region on quadratic models of batched samples,
+#: which goes on where Powell's line searches stall (they stopped short of the fit's own minimum: bow's
+#: energy 1989 -> 1716 with it); chosen with the view samples above on the same dev split among 4 variants
+#: (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid's proportions")
+TWO_CUE_QUADRATIC = 12
 _TWO_CUE = TwoCueShape(frames=KEYPOINT_SHAPE_FRAMES, keyframes=KEYPOINT_SHAPE_FRAMES, aligned_only=False,
-                       view_samples=TWO_CUE_VIEW_SAMPLES)
+                       view_samples=TWO_CUE_VIEW_SAMPLES, quadratic=TWO_CUE_QUADRATIC)
 #: its local step solved within the joint limits (an angle at its limit held while the others take up
 #: what it cannot give, not clipped after the solve), chosen on the same dev split (issue 34 item 4:
 #: docs/results/surface.md, "The two-cue hybrid's pose")

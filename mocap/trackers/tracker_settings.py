@@ -213,11 +213,14 @@ class TwoCueShape:
     frame's bone length (the silhouettes' evidence; each view's energy is divided by its value
     at the current shape, its residual scale; the bone lengths by their spread over frames);
     ``length_floor``: the least per-frame spread (m) a bone length is credited with;
+    ``prior``: the weight of the shape model's prior |alpha_1..C|^2 / 2 (1: the model's own);
     ``particles`` x ``layers``: the annealed search over the coefficients and a shared
     ``shift`` (m) of the body, first-layer spread ``std`` (in the keypoints' posterior standard
     deviations: :meth:`~mocap.trackers.two_cue_shape.LengthEvidence.posterior_root`), on silhouettes
     at ``resolution`` px (longest image side), then at most ``polish`` energy evaluations of
-    Powell's method from its result (0: none)."""
+    Powell's method from its result (0: none), then ``quadratic`` iterations (0: none) of a trust
+    region on a quadratic model of batched samples, first radius ``quadratic_radius`` (the search's
+    units; :mod:`mocap.trackers.quadratic_polish`)."""
 
     frames: int = 0
     every: int = 0
@@ -225,6 +228,7 @@ class TwoCueShape:
     aligned_only: bool = True
     components: int = 10
     view_samples: float = 1.0
+    prior: float = 1.0
     length_floor: float = 0.005
     particles: int = 40
     layers: int = 8
@@ -232,16 +236,21 @@ class TwoCueShape:
     shift: float = 0.02
     resolution: int = 256
     polish: int = 400
+    quadratic: int = 0
+    quadratic_radius: float = 1.0
 
     def __post_init__(self) -> None:
         check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
         check(self, "polish", self.polish >= 0, "an integer >= 0 evaluations (0: none)")
+        check(self, "quadratic", self.quadratic >= 0, "an integer >= 0 iterations (0: none)")
+        check(self, "quadratic_radius", self.quadratic_radius > 0, "> 0 (the search's standard deviations)")
         check(self, "every", self.every >= 0, "an integer >= 0 (0: once)")
         for name in ("keyframes", "components", "layers", "resolution"):
             check(self, name, getattr(self, name) >= 1, "an integer >= 1")
         check(self, "particles", self.particles >= 2, "an integer >= 2")
         check(self, "view_samples", self.view_samples >= 0, ">= 0 (0: the keypoints alone)")
         check(self, "length_floor", self.length_floor > 0, "> 0 m")
+        check(self, "prior", self.prior >= 0, ">= 0 (1: the model's prior, 0: none)")
         check(self, "std", self.std > 0, "> 0")
         check(self, "shift", self.shift >= 0, ">= 0 m")
 

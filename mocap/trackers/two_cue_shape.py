@@ -10,7 +10,7 @@ coefficients and a shared shift of the body:
 
     E(alpha, s) = sum_b n_b (L_b(alpha) - m_b)^2 / (2 sigma_b^2)           (keypoints)
                 + w sum_f sum_v E_S,fv(alpha, s) / E_S,fv(alpha_0, 0)       (silhouettes)
-                + |alpha_1..C|^2 / 2                                         (the model's prior)
+                + p |alpha_1..C|^2 / 2                                       (the model's prior, p: ``prior``)
 
 - ``m_b``, ``sigma_b``, ``n_b``: the median, robust spread (1.4826 MAD, at least
   ``length_floor``) and count over the frames of the distance between two landmarks that no pose
@@ -22,7 +22,10 @@ coefficients and a shared shift of the body:
 - the search: in the coordinates of the keypoints' posterior (each unit one standard deviation
   the bone lengths and the prior leave, :meth:`LengthEvidence.posterior_root`), the annealed
   particle filter (:func:`~mocap.trackers.apf.run_apf`) from the best of the current shape, the
-  keypoints' own fit and the point halfway, then Powell's line searches (scipy) from its result.
+  keypoints' own fit and the point halfway, then Powell's line searches (scipy) from its result,
+  then (``quadratic`` > 0) that many iterations of a trust region on a quadratic model of batched
+  samples (:mod:`mocap.trackers.quadratic_polish`), which goes on where Powell stalls in the
+  silhouettes' pixel noise.
 
 Each term's minimum is a different shape; their sum puts the shape where the directions each
 cue measures are met by that cue (the keypoints' bone lengths, the silhouettes' girth) rather
@@ -44,6 +47,7 @@ from mocap.body.model import BodyModel
 from mocap.cameras import Rig
 from mocap.energy.silhouette import silhouette_target
 from mocap.trackers.apf import run_apf
+from mocap.trackers.quadratic_polish import quadratic_polish
 from mocap.trackers.shape_search import shape_energy
 from mocap.trackers.tracker_settings import APFSettings, TwoCueShape
 
@@ -92,24 +96,28 @@ class LengthEvidence:
         J = np.einsum("bc,kbc->bk", u, self.basis[:components, i] - self.basis[:components, j])
         return J * np.sqrt(self.weight)[:, None]
 
-    def posterior_root(self, alpha: np.ndarray, components: int) -> np.ndarray:
-        """(C, C) the symmetric square root of (J^T J + I)^-1 at ``alpha``: the spread of the
-        first C coefficients that the bone lengths and the model's prior leave (Laplace), the
-        search's coordinates (one unit: one standard deviation along each direction)."""
+    def posterior_root(self, alpha: np.ndarray, components: int, prior: float = 1.0) -> np.ndarray:
+        """(C, C) the symmetric square root of (J^T J + p I)^-1 at ``alpha`` (p: the model
+        prior's weight ``prior``): the spread of the first C coefficients that the bone lengths
+        and the prior leave (Laplace), the search's coordinates (one unit: one standard
+        deviation along each direction). Directions neither constrains (p = 0) are given the
+        spread of a prior of weight 1e-6."""
         J = self.jacobian(alpha, components)
-        lam, V = np.linalg.eigh(J.T @ J + np.eye(components))
+        lam, V = np.linalg.eigh(J.T @ J + max(prior, 1e-6) * np.eye(components))
         return (V / np.sqrt(lam)) @ V.T
 
-    def fit(self, alpha: np.ndarray, components: int, iterations: int = 20) -> np.ndarray:
-        """The shape (K,) minimising :meth:`energy` + |alpha_1..C|^2 / 2 over the first
-        ``components`` coefficients of ``alpha`` (the rest held): Gauss-Newton."""
+    def fit(self, alpha: np.ndarray, components: int, iterations: int = 20, prior: float = 1.0) -> np.ndarray:
+        """The shape (K,) minimising :meth:`energy` + p |alpha_1..C|^2 / 2 (p: ``prior``, the
+        model prior's weight; 0: least squares) over the first ``components`` coefficients of
+        ``alpha`` (the rest held): Gauss-Newton (Levenberg's damping 1e-9 where p = 0)."""
         alpha = np.array(alpha, np.float64)
         C = min(components, len(alpha))
         w = np.sqrt(self.weight)
+        p = float(prior)
         for _ in range(iterations):
             r = w * np.nan_to_num(self.lengths(alpha)[0] - self.median)
             J = self.jacobian(alpha, C)
-            step = np.linalg.solve(J.T @ J + np.eye(C), -(J.T @ r + alpha[:C]))
+            step = np.linalg.solve(J.T @ J + max(p, 1e-9) * np.eye(C), -(J.T @ r + p * alpha[:C]))
             alpha[:C] += step
             if np.abs(step).max() < 1e-7:
                 break
@@ -202,13 +210,13 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
     def terms(x: np.ndarray) -> dict[str, np.ndarray]:
         x = np.atleast_2d(x)
         return {"keypoints": lengths.energy(full(x)), "silhouettes": w * sil(x),
-                "prior": 0.5 * (x[:, :C] ** 2).sum(axis=1)}
+                "prior": 0.5 * settings.prior * (x[:, :C] ** 2).sum(axis=1)}
 
     def energy(x: np.ndarray) -> np.ndarray:
         return sum(terms(x).values())
 
-    keypoints_only = lengths.fit(alpha, C)
-    root = lengths.posterior_root(keypoints_only, C)                             # (C, C)
+    keypoints_only = lengths.fit(alpha, C, prior=settings.prior)
+    root = lengths.posterior_root(keypoints_only, C, settings.prior)             # (C, C)
 
     def shape_of(z: np.ndarray) -> np.ndarray:
         """(P, C + 3) search coordinates -> (P, C + 3) coefficients and shift."""
@@ -235,6 +243,13 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
                          options={"maxfev": settings.polish, "xtol": 1e-2, "ftol": 1e-4})
         if found.fun < searched(z)[0]:
             z = found.x
+    polished = None
+    if settings.quadratic:
+        scale = np.r_[np.ones(C), np.full(3, max(settings.shift, 1e-6) / 2)]     # the shift in its spreads
+        v, _, polished = quadratic_polish(lambda u: searched(u * scale), z / scale, settings.quadratic_radius,
+                                          settings.quadratic, rng, lower=limits[:, 0] / scale,
+                                          upper=limits[:, 1] / scale)
+        z = v * scale
     x = shape_of(z)[0]
     x0 = np.r_[alpha[:C], zero]
     new = full(x)[0]
@@ -251,6 +266,8 @@ def fit_two_cue_shape(body: BodyModel, rig: Rig, landmarks: LandmarkSet, alpha: 
               "keypoints_only_change": float(np.linalg.norm(keypoints_only - alpha)),
               "before": {k: float(v[0]) for k, v in before.items()},
               "after": {k: float(v[0]) for k, v in after.items()}}
+    if polished is not None:
+        report["quadratic"] = polished
     if flag:
         report["flag"] = flag
     return TwoCueFit(new, x[C:C + 3].copy(), report)

@@ -69,6 +69,41 @@ def test_the_keypoints_fit_and_its_posterior_match_a_linear_least_squares(body):
     assert np.allclose(R, R.T) and np.allclose(R @ R, np.linalg.inv(J.T @ J + np.eye(C)), atol=1e-10)
 
 
+def test_the_prior_weight_scales_the_prior_and_at_zero_gives_the_least_squares_lengths(body):
+    """``prior`` p: the fit is where the gradient of E + p |alpha_1..C|^2 / 2 vanishes (finite
+    differences, p = 0.3), and the posterior root's square is (J^T J + p I)^-1. A body of known
+    shape (its first 10 coefficients 2.5 standard deviations out, the rest 0), its landmarks
+    exact in 6 poses: with p = 0 (least squares) the fit from the mean shape over those 10
+    coefficients reproduces every bone length within 0.1 mm (the true shape has none left); the
+    model's prior (p = 1) leaves them further off (it pulls towards the mean)."""
+    landmarks = make_landmark_set(body, "auto", LABELS)
+    C = 10
+    truth = np.zeros(body.num_shape)
+    truth[:C] = 2.5 * np.where(np.arange(C) % 2, -1.0, 1.0)
+    pts = np.asarray(landmarks.positions(body.shaped(truth), probe_poses(body, 6)), np.float64)
+    ev = length_evidence(body, landmarks, pts, floor=0.005)
+    true = ev.lengths(truth)[0]
+    lsq = ev.fit(np.zeros(body.num_shape), C, iterations=50, prior=0.0)
+    assert np.abs(ev.lengths(lsq)[0] - true).max() < 1e-4
+    held = ev.fit(np.zeros(body.num_shape), C, iterations=50, prior=1.0)
+    assert np.abs(ev.lengths(held)[0] - true).max() > 10 * np.abs(ev.lengths(lsq)[0] - true).max()
+    noise = np.random.default_rng(4).normal(0, 0.005, pts.shape)
+    noisy = length_evidence(body, landmarks, pts + noise, 0.005)
+    p = 0.3
+    fit = noisy.fit(np.zeros(body.num_shape), C, prior=p)
+
+    def total(a):
+        return noisy.energy(a[None])[0] + 0.5 * p * float((a[:C] ** 2).sum())
+
+    for k in range(C):
+        step = np.zeros(body.num_shape)
+        step[k] = 1e-5
+        assert abs((total(fit + step) - total(fit - step)) / 2e-5) < 1e-2 * max(1.0, abs(total(fit)))
+    J = noisy.jacobian(fit, C)
+    R = noisy.posterior_root(fit, C, prior=p)
+    assert np.allclose(R @ R, np.linalg.inv(J.T @ J + p * np.eye(C)), atol=1e-10)
+
+
 @pytest.fixture(scope="module")
 def walk(body):
     return keypoint_walk(body, 8)
@@ -107,11 +142,12 @@ def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
 def test_hybrid_kp_fits_its_shape_to_both_cues_after_its_keypoint_refit_frames():
     """The preset: the two-cue fit on, after the frames of the keypoint refit it replaces, every
     one of them in the silhouette term."""
-    from mocap.trackers.presets import KEYPOINT_SHAPE_FRAMES, PRESETS, TWO_CUE_VIEW_SAMPLES
+    from mocap.trackers.presets import KEYPOINT_SHAPE_FRAMES, PRESETS, TWO_CUE_QUADRATIC, TWO_CUE_VIEW_SAMPLES
 
     two_cue = PRESETS["hybrid_kp"].keypoints.two_cue
     assert two_cue.enabled and two_cue.frames == two_cue.keyframes == KEYPOINT_SHAPE_FRAMES
     assert not two_cue.aligned_only and two_cue.view_samples == TWO_CUE_VIEW_SAMPLES
+    assert two_cue.quadratic == TWO_CUE_QUADRATIC > 0 and TwoCueShape().quadratic == 0
     assert not PRESETS["hybrid"].keypoints.two_cue.enabled
 
 
