@@ -61,8 +61,8 @@ def pytest_sessionfinish(session):
 
     config = session.config
     stem = os.environ.get("MOCAP_RECORD_KERNELS")
-    if stem:                                 # the kernels' argument types this process compiled
-        from mocap import kernel_cache       # (mocap/kernel_signatures.json: docs/development.md)
+    if stem:     # the kernels' argument types this process compiled (docs/results/speed.md)
+        from mocap import kernel_cache
 
         kernel_cache.record(f"{stem}.{os.environ.get('PYTEST_XDIST_WORKER', 'main')}.json")
     if config.getoption("store_durations", False) and not hasattr(config, "workerinput") and _SECONDS:
