@@ -243,6 +243,9 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     calls = [e.diagnostics.apf_called for e in estimates[1:] if e.diagnostics.apf_called is not None]
     if calls:
         out["apf_calls_per_frame"] = float(np.mean(calls))
+    choices = [e.diagnostics.start_choice for e in estimates if e.diagnostics.start_choice]
+    if choices:                         # the hybrid's start chosen over frames (start_frames)
+        out["start_choice"] = dict(choices[0])
     return out
 
 

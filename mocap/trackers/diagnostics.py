@@ -140,6 +140,9 @@ class StepDiagnostics:
     injection: Injection | None = None
     shape: ShapeUpdate | None = None
     initial: bool = False
+    #: the start chosen over frames, on the frame it was chosen (the hybrid's ``start_frames``):
+    #: {"frames": n, "hypotheses": [names], "energy": [summed E_S], "chosen": name}
+    start_choice: Mapping | None = None
 
     @property
     def energy(self) -> float | None:
@@ -162,8 +165,9 @@ class StepDiagnostics:
         """Every numeric field, flattened: ``energy/<term>``, ``energy/total``,
         ``timing/<stage>``, ``misalignment/limb_errors/<limb>``, ``local/iterations``, ...
         (per-layer annealing values are in ``anneal``; arrays and text are left out)."""
+        left = ("anneal", "energy_terms", "timings", "initial", "start_choice")
         out = flatten_scalars("", {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                            if f.name not in ("anneal", "energy_terms", "timings", "initial")})
+                                   if f.name not in left})
         out.update({f"energy/{k}": float(v) for k, v in self.energy_terms.items()})
         if self.energy_terms:
             out["energy/total"] = self.energy
@@ -217,6 +221,8 @@ class StepDiagnostics:
             d["injection"] = dataclasses.asdict(self.injection)
         if self.shape is not None:
             d["shape_update"] = dataclasses.asdict(self.shape)
+        if self.start_choice is not None:
+            d["start_choice"] = dict(self.start_choice)
         return d
 
     # read-only mapping access to the old dictionary form

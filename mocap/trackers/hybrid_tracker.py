@@ -495,7 +495,7 @@ class HybridTracker(LocalTracker):
         self.start_choice = {"frames": len(frames), "hypotheses": names,
                              "energy": [float(e) for e in found.total], "chosen": names[best]}
         if not best:
-            return est
+            return self.reporting_choice(est)
         chi0, alpha0 = found.starts[best], shapes[best]
         last = frames[-1].index
         self.stuck_searches = [f for f in self.stuck_searches if f > last]
@@ -505,7 +505,13 @@ class HybridTracker(LocalTracker):
         for frame in frames[1:]:
             est = self.track_step(frame)
             self.revised[frame.index] = est
+        est = self.revised[frames[-1].index] = self.reporting_choice(est)
         return est
+
+    def reporting_choice(self, est: Estimate) -> Estimate:
+        """``est`` with the start's choice in its diagnostics (the run's metrics read it there)."""
+        return dataclasses.replace(est, diagnostics=dataclasses.replace(est.diagnostics,
+                                                                        start_choice=self.start_choice))
 
     def track_step(self, frame: Frame) -> Estimate:
         """The hybrid's step on ``frame``: the local step, the check, the repair where flagged,

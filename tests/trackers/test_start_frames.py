@@ -117,6 +117,12 @@ def test_a_start_with_the_arms_exchanged_is_restarted_from_the_truth(body, seq):
     total = dict(zip(choice["hypotheses"], choice["energy"], strict=True))
     assert total["swap_shoulder"] < 0.8 * total["start"], total
     assert t.revised and sorted(t.revised) == list(range(FRAMES))
+    reported = [e.diagnostics.start_choice for e in t.final_tracks({0: t.revised})[0].values()]
+    assert reported[-1] == choice and not any(reported[:-1])      # on the frame it was chosen
+    from mocap.eval.run_metrics import run_metrics
+
+    metrics = run_metrics(body, seq, list(t.revised.values()), [0.0] * FRAMES, oracle={"enabled": False})
+    assert metrics["start_choice"]["chosen"] == "swap_shoulder"
     before, after = (joints_mm(body, seq.gt.alpha, c, truth[0]) for c in (wrong, chis[0]))
     assert before > 15
     assert after < 0.3 * before
