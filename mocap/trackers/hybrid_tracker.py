@@ -391,9 +391,11 @@ class HybridTracker(LocalTracker):
 
     @property
     def revises_tracks(self) -> bool:
-        """With ``start_frames`` on, the first frames' answers may be replaced once the start is
-        chosen over them (:meth:`final_tracks`)."""
-        return super().revises_tracks or self.start_frames.frames > 0
+        """With ``start_frames`` on, in a run it applies to (self-initialised, no keypoint cue: see
+        :meth:`begin`), the first frames' answers may be replaced once the start is chosen over them
+        (:meth:`final_tracks`); a run from a given pose is recorded as it goes."""
+        chosen_later = self.start_frames.frames > 0 and self.self_initialised and self.cue is None
+        return super().revises_tracks or chosen_later
 
     def begin(self, frame: Frame, initial):
         """As :class:`OnePerson`'s; with ``start_frames`` on, no keypoint cue and a run that starts

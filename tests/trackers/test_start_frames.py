@@ -132,13 +132,16 @@ def test_a_start_with_the_arms_exchanged_is_restarted_from_the_truth(body, seq):
 
 def test_a_run_from_a_given_pose_is_not_chosen_over_frames(body, seq):
     """Started from a given pose (ground truth plus noise: the tracker's initializer never asked for),
-    the start is the run's, with the setting on."""
+    the start is the run's, with the setting on, and its frames are recorded as they are tracked."""
     t = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
                      start_frames={"frames": 2, "restarts": 0}, **FAST)
     perm, sign = mirror_map(body)
     wrong = swapped(seq.gt.chi[0], dict(chain_pairs(body))["shoulder"], perm, sign, body.limits)
     result = run_frames(t, seq, {0: initial_estimate_of(wrong, seq.gt.alpha)}, frames=3)
     assert t.start_choice is None and not t.revised
+    assert not t.revises_tracks                 # recorded as it goes
+    t.initializer()                             # asked for its own start: its first frames may change
+    assert t.revises_tracks
     np.testing.assert_array_equal(result.estimates[0].chi, wrong)
 
 
