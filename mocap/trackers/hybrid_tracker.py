@@ -432,17 +432,16 @@ class HybridTracker(LocalTracker):
         settings and body), each from its own generator seeded by a number drawn from a copy of the
         start's generator (the tracker's own draws unchanged), cached as the start is (in the
         folder given to :meth:`initializer`). Returns [(pose (D,), shape (K,))]."""
-        from mocap.trackers.init_cache import Cached, SilhouetteStart
+        from mocap.trackers.init_cache import Cached
 
         n = self.start_frames.restarts
         if not n:
             return []
         base = int(copy.deepcopy(self.init_rng).integers(2**62))
-        body = self.body if self.start_body is None else self.start_body
         out = []
         for k in range(1, n + 1):
-            start = SilhouetteStart(body, self.rig, self.init_settings, np.random.default_rng([base, k]),
-                                    progress=lambda stage, fraction: None, library=self.library)
+            start = self.silhouette_start(np.random.default_rng([base, k]),
+                                          progress=lambda stage, fraction: None)
             est, _ = Cached(start, self.start_cache)(frame)
             out.append((np.asarray(est[0].chi, np.float64), np.asarray(est[0].alpha, np.float64)))
         return out

@@ -261,9 +261,15 @@ class SilhouetteInitialisation:
     def initializer(self, cache=None):
         """Shape and pose from a frame's silhouettes alone (Sec. 3.1), cached in the folder
         ``cache`` (None: not cached)."""
+        return Cached(self.silhouette_start(self.init_rng), cache)
+
+    def silhouette_start(self, rng: np.random.Generator, progress=None) -> SilhouetteStart:
+        """The tracker's start (its ``start_body``, rig, ``init_settings`` and ``library``) drawing
+        from ``rng`` (:meth:`initializer`'s: ``init_rng``); ``progress`` as
+        :class:`SilhouetteStart`'s."""
         body = self.body if self.start_body is None else self.start_body
-        return Cached(SilhouetteStart(body, self.rig, self.init_settings, self.init_rng,
-                                      library=self.library), cache)
+        return SilhouetteStart(body, self.rig, self.init_settings, rng, progress=progress,
+                               library=self.library)
 
     def initial_estimate(self, frame) -> tuple[np.ndarray, np.ndarray]:
         """Shape and pose from this frame's silhouettes alone (Sec. 3.1)."""
