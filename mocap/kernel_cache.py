@@ -197,7 +197,7 @@ def record(path: str | Path) -> dict[str, list[str]]:
         if not name.startswith("mocap.") or module is None:
             continue
         for attr, kernel in _dispatchers(module).items():
-            sigs = sorted(repr(tuple(s)) if not isinstance(s, tuple) else repr(s) for s in kernel.signatures)
+            sigs = sorted(repr(tuple(s)) for s in kernel.signatures)
             if sigs:
                 out[f"{name}:{attr}"] = sigs
     Path(path).write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")

@@ -32,12 +32,13 @@ def chain_pairs(body: BodyModel) -> list[tuple[str, np.ndarray]]:
     chains), in the order of the chains (paper22: ("shoulder", arms), ("hip", legs))."""
     names = body.joint_names
     dof_joint = np.asarray(body.dof_joint)
+    chains = limb_chains(body)
     out = []
-    for root, limbs in limb_chains(body):
+    for root, limbs in chains:
         name = names[root]
         if not name.startswith("l_"):
             continue
-        other = [(r, ls) for r, ls in limb_chains(body) if names[r] == "r_" + name[2:]]
+        other = [(r, ls) for r, ls in chains if names[r] == "r_" + name[2:]]
         if not other:
             continue
         joints = {root, *limbs, other[0][0], *other[0][1]}
