@@ -110,3 +110,20 @@ def test_joint_offsets_of_estimates():
     assert joint_offsets_of([E(), E()], 2) is None
     out = joint_offsets_of([E(), E(np.ones((2, 3)))], 2)
     np.testing.assert_array_equal(out, [np.zeros((2, 3)), np.ones((2, 3))])
+
+
+def test_metrics_pose_each_frame_with_its_offsets(body):
+    """per_shape groups frames by shape and corrections: a frame's points are those of its own
+    corrected body; with none (None) the call is the one before corrections existed."""
+    from mocap.eval.estimates import per_shape
+
+    rng = np.random.default_rng(6)
+    alpha = rng.normal(size=body.num_shape)
+    chis = _poses(body, 4).astype(np.float32)
+    d = rng.normal(scale=0.02, size=(body.num_joints, 3))
+    offsets = np.stack([np.zeros_like(d), d, d, np.zeros_like(d)])
+    out = per_shape(body, alpha, chis, lambda s, c: s.joints(c), offsets)
+    np.testing.assert_array_equal(out[[1, 2]], body.shaped(alpha, d).joints(chis[[1, 2]]))
+    np.testing.assert_array_equal(out[[0, 3]], body.shaped(alpha).joints(chis[[0, 3]]))
+    np.testing.assert_array_equal(per_shape(body, alpha, chis, lambda s, c: s.joints(c)),
+                                  body.shaped(alpha).joints(chis))
