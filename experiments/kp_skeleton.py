@@ -110,29 +110,34 @@ def bound(data: str, source: str, out: Path, fit: int = 15, ridge: float = 0.03,
 
     zero = np.zeros((body.num_joints, 3))
     fit_sel, test_sel = np.arange(fit), np.arange(fit, F)
-    rows = {"frames_fit": fit, "frames_scored": int(F - fit), "ridge": ridge}
+    rows = {"frames_fit": fit, "frames_scored": int(F - fit), "std": ridge}
     rows["held_no_offsets"] = score(chis[test_sel], alpha, zero)
-    poses = chis.copy()
-    delta = zero
-    deltas = []
-    for it in range(alternate + 1):
-        found = fit_joint_offsets(body, lm, alpha, poses[fit_sel], measured[fit_sel], std=ridge)
-        delta, info = found.offsets, found.report
-        deltas.append(delta)
-        rows[f"fit{it}"] = info
-        rows[f"held_offsets_{it}"] = score(chis[test_sel], alpha, delta)
-        print(it, "held", rows["held_no_offsets"], "->", rows[f"held_offsets_{it}"],
-              {n: np.round(1e3 * d, 1).tolist() for n, d in zip(body.joint_names, delta, strict=True)
-               if np.linalg.norm(d) > 0.01}, flush=True)
-        if it < alternate:
+
+    def fitted(poses, start=None):
+        found = fit_joint_offsets(body, lm, alpha, poses[fit_sel], measured[fit_sel], std=ridge, start=start)
+        return found.offsets, found.report
+
+    # (a) the fit frames' poses as tracked (with the start's shape); (b) first re-fitted by a local
+    # step on the new shape (what the two-cue fit's shift and shape moved), then alternating
+    plans = {"as_tracked": chis.copy(), "refit": refit(fit_sel, chis, zero)}
+    best = None
+    for name, poses in plans.items():
+        delta, info = fitted(poses)
+        rows[f"{name}_fit0"] = info
+        rows[f"{name}_held_0"] = score(chis[test_sel], alpha, delta)
+        for it in range(1, alternate + 1):
             poses = refit(fit_sel, poses, delta)
-    rows["offsets_mm"] = {n: np.round(1e3 * d, 1).tolist()
-                          for n, d in zip(body.joint_names, delta, strict=True)}
-    refit_none = refit(test_sel, chis, zero)
-    rows["refit_no_offsets"] = score(refit_none[test_sel], alpha, zero)
-    refit_delta = refit(test_sel, chis, delta)
-    rows["refit_offsets"] = score(refit_delta[test_sel], alpha, delta)
-    print(json.dumps({k: v for k, v in rows.items() if not k.startswith(("fit", "offsets"))}), flush=True)
+            delta, info = fitted(poses, delta)
+            rows[f"{name}_fit{it}"] = info
+            rows[f"{name}_held_{it}"] = score(chis[test_sel], alpha, delta)
+        rows[f"{name}_offsets_mm"] = {n: np.round(1e3 * d, 1).tolist()
+                                      for n, d in zip(body.joint_names, delta, strict=True)}
+        print(name, {k: v for k, v in rows.items() if k.startswith(name) and "held" in k}, flush=True)
+        best = delta if name == "refit" else best
+    rows["refit_no_offsets"] = score(refit(test_sel, chis, zero)[test_sel], alpha, zero)
+    rows["refit_offsets"] = score(refit(test_sel, chis, best)[test_sel], alpha, best)
+    shown = {k: v for k, v in rows.items() if not isinstance(v, dict)}
+    print(json.dumps(shown), flush=True)
     (folder / "bound.json").write_text(json.dumps(rows, indent=1))
     return rows
 

@@ -84,6 +84,15 @@ def joint_offsets_of(estimates, joints: int) -> np.ndarray | None:
     return np.stack([np.zeros((joints, 3)) if o is None else np.asarray(o, np.float64) for o in offsets])
 
 
+def marked_joints(body: BodyModel, landmarks: LandmarkSet) -> np.ndarray:
+    """(n,) sorted indices of the joints a landmark's rest point is made of (``at`` / ``between``):
+    the joints keypoints measure directly. A joint that is only a rotation centre (no landmark on
+    it: e.g. the spine) is measured through its children's motion alone, weakly; its correction
+    is held at zero."""
+    names = {n for lm in landmarks.landmarks for n in ((lm.at,) if lm.at else ()) + tuple(lm.between)}
+    return np.array(sorted(body.joint_index(n) for n in names), dtype=np.int64)
+
+
 @dataclass(frozen=True)
 class OffsetFit:
     """delta (J, 3) metres and a report (observations used, RMS residual before and after, mm)."""
@@ -100,7 +109,8 @@ def fit_joint_offsets(body: BodyModel, landmarks: LandmarkSet, alpha: np.ndarray
     landmarks ``measured`` (F, L, 3) world metres (NaN: unmeasured), the shape alpha (K,):
     ``std`` (m) the prior's spread of each offset coordinate (> 0), ``noise`` (m) a keypoint's,
     residuals beyond ``huber`` x noise down-weighted (Huber); ``iterations`` re-linearisations
-    about the axes of the corrected joints, from ``start`` (J, 3; None: zero)."""
+    about the axes of the corrected joints, from ``start`` (J, 3; None: zero). Only the joints a
+    landmark is made of (:func:`marked_joints`) move; the others keep ``start``'s."""
     chis = np.atleast_2d(np.asarray(chis, np.float64))
     y = np.asarray(measured, np.float64)
     if y.shape != (len(chis), len(landmarks), 3):
@@ -113,6 +123,7 @@ def fit_joint_offsets(body: BodyModel, landmarks: LandmarkSet, alpha: np.ndarray
     joints = np.asarray(joints, np.float64)
     delta = np.zeros((Jn, 3)) if start is None else np.array(start, np.float64)
     seen = np.isfinite(y).all(axis=2)                                                 # (F, L)
+    free = (3 * marked_joints(body, landmarks)[:, None] + np.arange(3)).ravel()       # (n,) coordinates
     report = {"observations": int(seen.sum()), "frames": int(len(chis))}
     if not seen.any():
         return OffsetFit(delta, {**report, "rms_before_mm": float("nan"), "rms_after_mm": float("nan")})
@@ -132,12 +143,14 @@ def fit_joint_offsets(body: BodyModel, landmarks: LandmarkSet, alpha: np.ndarray
         r = np.where(seen[..., None], b - np.nan_to_num(y), 0.0)                        # at delta
         norm = np.linalg.norm(r, axis=2)
         w = np.where(seen, np.minimum(1.0, huber * noise / np.maximum(norm, 1e-12)), 0.0)
-        Aw = A[seen] * np.sqrt(w[seen])[:, None, None]                                  # (N, 3, 3J)
+        Aw = A[seen][..., free] * np.sqrt(w[seen])[:, None, None]                      # (N, 3, n)
         rw = r[seen] * np.sqrt(w[seen])[:, None]
-        H = np.einsum("nci,ncj->ij", Aw, Aw) / noise**2 + np.eye(3 * Jn) / std**2
-        g = np.einsum("nci,nc->i", Aw, rw) / noise**2 + delta.ravel() / std**2
+        H = np.einsum("nci,ncj->ij", Aw, Aw) / noise**2 + np.eye(len(free)) / std**2
+        g = np.einsum("nci,nc->i", Aw, rw) / noise**2 + delta.ravel()[free] / std**2
         step = -np.linalg.solve(H, g)
-        delta = delta + step.reshape(Jn, 3)
+        flat = delta.ravel().copy()
+        flat[free] += step
+        delta = flat.reshape(Jn, 3)
         if np.abs(step).max() < 1e-6:
             break
     r1 = residuals(delta)

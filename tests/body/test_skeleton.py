@@ -7,7 +7,13 @@ import pytest
 
 from mocap.body.catalogue import make_landmark_set, probe_poses
 from mocap.body.dofs import resolve_axes
-from mocap.body.skeleton import fit_joint_offsets, joint_offsets_of, offset_map, posed_landmarks
+from mocap.body.skeleton import (
+    fit_joint_offsets,
+    joint_offsets_of,
+    marked_joints,
+    offset_map,
+    posed_landmarks,
+)
 
 
 def _poses(body, count, seed=0):
@@ -74,8 +80,8 @@ def test_offsets_are_checked_before_any_work(body):
 def test_a_known_skeleton_is_recovered_from_exact_keypoints(body64):
     """A body whose true skeleton is the shape's moved by a known delta (the joints a keypoint
     sits on, up to 4 cm), seen in 12 poses through exact keypoints: the fit (axes resolved from
-    the corrected joints, as the body poses) finds delta within 1 mm, and the joints no keypoint
-    constrains stay where the prior holds them (0)."""
+    the corrected joints, as the body poses) finds delta within 1 mm; the joints no landmark
+    sits on stay at 0."""
     rng = np.random.default_rng(4)
     lms = make_landmark_set(body64, "default")
     alpha = rng.normal(size=body64.num_shape)
@@ -87,6 +93,8 @@ def test_a_known_skeleton_is_recovered_from_exact_keypoints(body64):
     y = lms.positions(truth, chis)
     fit = fit_joint_offsets(body64, lms, alpha, chis, y, std=0.05, noise=0.002)
     assert np.abs(fit.offsets[marked] - d[marked]).max() < 1e-3
+    assert marked_joints(body64, lms).tolist() == marked
+    assert not np.delete(fit.offsets, marked, axis=0).any()
     assert fit.report["rms_after_mm"] < 0.5 < fit.report["rms_before_mm"]
     # a third of the keypoints missing and one frame's wrist 30 cm off: still within 1 mm
     y2 = y.copy()
@@ -99,7 +107,8 @@ def test_a_known_skeleton_is_recovered_from_exact_keypoints(body64):
 def test_bad_keypoints_are_refused(body64):
     lms = make_landmark_set(body64, "default")
     with pytest.raises(ValueError, match=r"measured landmarks have shape \(2, 3, 3\)"):
-        fit_joint_offsets(body64, lms, np.zeros(body64.num_shape), _poses(body64, 2), np.zeros((2, 3, 3)), std=0.03)
+        fit_joint_offsets(body64, lms, np.zeros(body64.num_shape), _poses(body64, 2), np.zeros((2, 3, 3)),
+                          std=0.03)
 
 
 def test_joint_offsets_of_estimates():
