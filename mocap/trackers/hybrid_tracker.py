@@ -228,6 +228,8 @@ class HybridTracker(LocalTracker):
         report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
         if self.two_cue is not None:
             self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), True)
+            if self.two_cue.settings.skeleton_refit:
+                self.two_cue.observed[frame.index] = (frame, obs)
         return chi, np.asarray(self.shaped.alpha, np.float64), report
 
     def search_start(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray
@@ -379,7 +381,11 @@ class HybridTracker(LocalTracker):
         self.history = [move(c) for c in self.history]
         state.shifted(move)
         if state.settings.skeleton > 0:
-            chis, measured = state.skeleton_frames()
+            frames, chis, measured = state.skeleton_frames()
+            for i, f in enumerate(frames if state.settings.skeleton_refit else ()):
+                frame, obs = state.observed[f]              # the poses re-fitted on the new shape
+                for _ in range(state.settings.skeleton_refit):
+                    chis[i] = self.local_step(frame, chis[i], extra=self.keypoint_lines(obs))[0]
             if len(chis):
                 fit = fit_joint_offsets(self.body, self.cue.landmarks, found.alpha, chis, measured,
                                         std=state.settings.skeleton, noise=state.settings.skeleton_noise,
@@ -594,6 +600,8 @@ class HybridTracker(LocalTracker):
             self.cue.learn_offsets(self.shaped, chi, obs)
             if self.two_cue is not None:
                 self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), not check.names)
+                if self.two_cue.settings.skeleton_refit:
+                    self.two_cue.observed[frame.index] = (frame, obs)
             ks = self.cue.settings
             if ((self.shape_prior is not None and len(self.cue.shape_samples) < ks.shape_frames)
                     or (ks.shape_follow and ks.shape_std > 0 and ks.shape_frames > 1)):

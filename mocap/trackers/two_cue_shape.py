@@ -283,6 +283,7 @@ class TwoCueState:
         self.measured: list[np.ndarray] = []
         self.keyframes: list[tuple[int, np.ndarray, np.ndarray]] = []      # (index, chi, masks)
         self.measured_at: dict[int, np.ndarray] = {}                       # index -> (L, 3)
+        self.observed: dict[int, tuple] = {}      # index -> (frame, its keypoints): skeleton_refit's
         self.fits = 0
         self.reports: list[dict] = []
 
@@ -307,12 +308,12 @@ class TwoCueState:
             return list(self.keyframes)
         return [self.keyframes[i] for i in np.unique(np.round(np.linspace(0, n - 1, k)).astype(int))]
 
-    def skeleton_frames(self) -> tuple[np.ndarray, np.ndarray]:
-        """The aligned frames' poses (N, D) and triangulated landmarks (N, L, 3) (every kept
-        keyframe, not only the :meth:`chosen` ones): the skeleton fit's evidence."""
+    def skeleton_frames(self) -> tuple[list[int], np.ndarray, np.ndarray]:
+        """The aligned frames' indices, poses (N, D) and triangulated landmarks (N, L, 3) (every
+        kept keyframe, not only the :meth:`chosen` ones): the skeleton fit's evidence."""
         if not self.keyframes:
-            return np.zeros((0, 0)), np.zeros((0, 0, 3))
-        return (np.stack([c for _, c, _ in self.keyframes]),
+            return [], np.zeros((0, 0)), np.zeros((0, 0, 3))
+        return ([f for f, _, _ in self.keyframes], np.stack([c for _, c, _ in self.keyframes]),
                 np.stack([self.measured_at[f] for f, _, _ in self.keyframes]))
 
     def shifted(self, move) -> None:

@@ -217,6 +217,9 @@ def test_the_hybrid_fits_its_skeleton_with_the_shape_and_tracks_on_it(body):
     assert TwoCueShape().skeleton == 0.0
     t_on, on = run(skeleton=0.03)
     t_off, off = run()
+    t_re, re = run(skeleton=0.03, skeleton_refit=1)          # the poses re-fitted first: another answer
+    assert not np.array_equal(t_re.joint_offsets, t_on.joint_offsets)
+    assert all(np.array_equal(e.joint_offsets, t_re.joint_offsets) for e in re[3:])
     assert all(e.joint_offsets is None for e in off) and t_off.joint_offsets is None
     assert all(e.joint_offsets is None for e in on[:3])
     d = t_on.joint_offsets
