@@ -142,12 +142,21 @@ def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
 def test_hybrid_kp_fits_its_shape_to_both_cues_after_its_keypoint_refit_frames():
     """The preset: the two-cue fit on, after the frames of the keypoint refit it replaces, every
     one of them in the silhouette term."""
-    from mocap.trackers.presets import KEYPOINT_SHAPE_FRAMES, PRESETS, TWO_CUE_QUADRATIC, TWO_CUE_VIEW_SAMPLES
+    from mocap.trackers.presets import (
+        KEYPOINT_SHAPE_FRAMES,
+        PRESETS,
+        TWO_CUE_QUADRATIC,
+        TWO_CUE_SKELETON,
+        TWO_CUE_SKELETON_REFIT,
+        TWO_CUE_VIEW_SAMPLES,
+    )
 
     two_cue = PRESETS["hybrid_kp"].keypoints.two_cue
     assert two_cue.enabled and two_cue.frames == two_cue.keyframes == KEYPOINT_SHAPE_FRAMES
     assert not two_cue.aligned_only and two_cue.view_samples == TWO_CUE_VIEW_SAMPLES
     assert two_cue.quadratic == TWO_CUE_QUADRATIC > 0 and TwoCueShape().quadratic == 0
+    assert two_cue.skeleton == TWO_CUE_SKELETON > 0 and two_cue.skeleton_refit == TWO_CUE_SKELETON_REFIT > 0
+    assert TwoCueShape().skeleton == 0 and TwoCueShape().skeleton_refit == 0
     assert not PRESETS["hybrid"].keypoints.two_cue.enabled
 
 
@@ -215,8 +224,8 @@ def test_the_hybrid_fits_its_skeleton_with_the_shape_and_tracks_on_it(body):
         return t, track_sequence(t, seq, chi, alpha).estimates
 
     assert TwoCueShape().skeleton == 0.0
-    t_on, on = run(skeleton=0.03)
-    t_off, off = run()
+    t_on, on = run(skeleton=0.03, skeleton_refit=0)
+    t_off, off = run(skeleton=0.0)
     t_re, re = run(skeleton=0.03, skeleton_refit=1)          # the poses re-fitted first: another answer
     assert not np.array_equal(t_re.joint_offsets, t_on.joint_offsets)
     assert all(np.array_equal(e.joint_offsets, t_re.joint_offsets) for e in re[3:])
