@@ -30,6 +30,10 @@ from mocap.settings import check, fields_of
 #: (apf_prior, hybrid), the APF trackers about 2x faster per frame.
 ENERGY_MESH_FACES = 2000
 
+#: the limb chains the hybrid's patrol may search (``HybridSearchSettings.patrol_chains``): every
+#: chain, or those rooted at the shoulders (arms) or at the hips (legs)
+PATROL_CHAINS = ("all", "arms", "legs")
+
 
 @dataclass(frozen=True)
 class APFSettings:
@@ -459,7 +463,9 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     or not); ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame
     with nothing flagged one limb chain in turn is searched all the same (0: off), its pose kept
     only where E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of
-    the views. ``heading_chains`` = N: where the check flags at least N limb chains at once, the
+    the views; ``patrol_chains``: which chains it searches, ``all``, ``arms`` (the chains rooted at
+    the shoulders: a forearm held in front of the torso stays inside the silhouettes, where the
+    check cannot see it) or ``legs`` (rooted at the hips). ``heading_chains`` = N: where the check flags at least N limb chains at once, the
     repair first turns the local step's pose about the vertical through its pelvis by each of
     ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
     whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
@@ -479,6 +485,7 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     patrol: int = 0
     patrol_agreement: float = 0.0
     patrol_margin: float = 0.0
+    patrol_chains: str = "all"
     heading_chains: int = 0
     heading_angles: tuple[float, ...] = (-30.0, -15.0, 15.0, 30.0)
     stuck_frames: int = 0
@@ -493,6 +500,7 @@ class HybridSearchSettings(SilhouetteSearchSettings):
         check(self, "patrol", self.patrol >= 0, "an integer >= 0 frames")
         check(self, "patrol_agreement", 0.0 <= self.patrol_agreement <= 1.0, "[0, 1]")
         check(self, "patrol_margin", 0.0 <= self.patrol_margin < 1.0, "[0, 1)")
+        check(self, "patrol_chains", self.patrol_chains in PATROL_CHAINS, "one of " + ", ".join(PATROL_CHAINS))
         check(self, "heading_chains", self.heading_chains >= 0, "an integer >= 0 chains (0: off)")
         check(self, "stuck_frames", self.stuck_frames >= 0, "an integer >= 0 frames (0: off)")
         check(self, "stuck_particles", self.stuck_particles >= 2, "an integer >= 2")
