@@ -465,9 +465,9 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     only where E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of
     the views; ``patrol_chains``: which chains it searches, ``all``, ``arms`` (the chains rooted at
     the shoulders: a forearm held in front of the torso stays inside the silhouettes, where the
-    check cannot see it) or ``legs`` (rooted at the hips). ``heading_chains`` = N: where the check flags at least N limb chains at once, the
-    repair first turns the local step's pose about the vertical through its pelvis by each of
-    ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
+    check cannot see it) or ``legs`` (rooted at the hips). ``heading_chains`` = N: where the
+    check flags at least N limb chains at once, the repair first turns the local step's pose
+    about the vertical through its pelvis by each of ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
     whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
     did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
     torso: :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged
@@ -500,7 +500,8 @@ class HybridSearchSettings(SilhouetteSearchSettings):
         check(self, "patrol", self.patrol >= 0, "an integer >= 0 frames")
         check(self, "patrol_agreement", 0.0 <= self.patrol_agreement <= 1.0, "[0, 1]")
         check(self, "patrol_margin", 0.0 <= self.patrol_margin < 1.0, "[0, 1)")
-        check(self, "patrol_chains", self.patrol_chains in PATROL_CHAINS, "one of " + ", ".join(PATROL_CHAINS))
+        check(self, "patrol_chains", self.patrol_chains in PATROL_CHAINS,
+              "one of " + ", ".join(PATROL_CHAINS))
         check(self, "heading_chains", self.heading_chains >= 0, "an integer >= 0 chains (0: off)")
         check(self, "stuck_frames", self.stuck_frames >= 0, "an integer >= 0 frames (0: off)")
         check(self, "stuck_particles", self.stuck_particles >= 2, "an integer >= 2")

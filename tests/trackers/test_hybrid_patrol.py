@@ -99,7 +99,7 @@ def test_bad_patrol_chains_are_refused_naming_the_field(body):
     with pytest.raises(SettingError, match=r"patrol_chains = 'torso' is out of range"):
         HybridSearchSettings(patrol_chains="torso")
     with pytest.raises(ValueError, match=r"apf.patrol_chains = 'torso' is out of range"):
-        make_tracker("hybrid", body=body, rig=ring_rig(2, 3.5, 1.5, 40, 30, fov_deg=45), rng=np.random.default_rng(0),
-                     apf={"patrol_chains": "torso"})
+        make_tracker("hybrid", body=body, rig=ring_rig(2, 3.5, 1.5, 40, 30, fov_deg=45),
+                     rng=np.random.default_rng(0), apf={"patrol_chains": "torso"})
     with pytest.raises(ValueError, match=r"apf.patrol_chains: 'arms' names no limb chain of body"):
         patrolled_chains(body, [c for c in limb_chains(body) if "hip" in body.joint_names[c[0]]], "arms")
