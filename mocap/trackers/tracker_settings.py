@@ -467,8 +467,8 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     the shoulders: a forearm held in front of the torso stays inside the silhouettes, where the
     check cannot see it) or ``legs`` (rooted at the hips). ``heading_chains`` = N: where the
     check flags at least N limb chains at once, the repair first turns the local step's pose
-    about the vertical through its pelvis by each of ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
-    whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
+    about the vertical through its pelvis by each of ``heading_angles`` (degrees), runs the
+    local step from each, and the limb search starts from whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
     did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
     torso: :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged
     on N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
