@@ -456,22 +456,23 @@ class LocalSettings(LocalStepSettings):
 @dataclass(frozen=True)
 class HybridSearchSettings(SilhouetteSearchSettings):
     """The hybrid's APF over the misaligned limbs: a small budget, without the pose prior (ours is
-    learned from our own motion library and pulls limbs away on motions from other code),
-    its first layer wide (``init_std``: the search starts from a limb known to be wrong) with a
-    share ``restart`` of it drawn uniformly within the searched angles' limits, of which a
-    share ``restart_from_library`` take a pose of the pose prior's training motions (mirrored
-    or not); ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame
-    with nothing flagged one limb chain in turn is searched all the same (0: off), its pose kept
-    only where E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of
-    the views; ``patrol_chains``: which chains it searches, ``all``, ``arms`` (the chains rooted at
-    the shoulders: a forearm held in front of the torso stays inside the silhouettes, where the
+    learned from our own motion library and pulls limbs away on motions from other code), its
+    first layer wide (``init_std``: the search starts from a limb known to be wrong) with a
+    share ``restart`` of it drawn uniformly within the searched angles' limits, of which a share
+    ``restart_from_library`` take a pose of the pose prior's training motions (mirrored or not);
+    ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame with nothing
+    flagged one limb chain in turn is searched all the same (0: off), its pose kept only where
+    E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of the views;
+    ``patrol_chains``: which chains it searches, ``all``, ``arms`` (the chains rooted at the
+    shoulders: a forearm held in front of the torso stays inside the silhouettes, where the
     check cannot see it) or ``legs`` (rooted at the hips). ``heading_chains`` = N: where the
     check flags at least N limb chains at once, the repair first turns the local step's pose
     about the vertical through its pelvis by each of ``heading_angles`` (degrees), runs the
-    local step from each, and the limb search starts from whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
-    did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
-    torso: :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged
-    on N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
+    local step from each, and the limb search starts from whichever of them and the unturned
+    pose has the lowest E_S (0: off; a turn the local step did not follow leaves every limb off
+    the silhouettes, and the limbs' angles cannot turn the torso:
+    :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged on
+    N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
     of its first layer take the flagged chains' angles from the motion library (0: off; a limb
     wrong from the start is flagged frame after frame while the usual search, a few library
     draws among 25 particles, never finds it)."""
