@@ -33,25 +33,12 @@ SETTINGS_CLASSES: dict[str, type] = {"apf": APFTrackerSettings, "local": LocalSe
 
 _APF_25X10 = replace(APFTrackerSettings(), particles=25, layers=10)
 _APF_PRIOR = replace(_APF_25X10, energy=replace(_APF_25X10.energy, prior=1.0))
-#: the silhouette-only hybrid's patrol: every frame on which the check flags nothing, one arm in turn is
-#: searched by the repair APF all the same, its pose kept where E_S falls by 1 % and in 3 of 4 views (a
-#: forearm held in front of the torso stays inside the silhouettes, where the check cannot see it);
-#: chosen on the real-motion dev split, seeds 0-2, against the patrol over all four chains (issue 34 item
-#: 4: docs/results/surface.md, "Silhouette-only hybrid: the patrol over three seeds"). Off in the
-#: dataclass (HybridSearchSettings) and for ``hybrid_kp`` (not measured with keypoints).
-HYBRID_PATROL = 1
-HYBRID_PATROL_CHAINS = "arms"
-HYBRID_PATROL_AGREEMENT = 0.75
-HYBRID_PATROL_MARGIN = 0.01
-_HYBRID = replace(HybridSettings(), apf=replace(HybridSettings().apf, patrol=HYBRID_PATROL,
-                                                patrol_chains=HYBRID_PATROL_CHAINS,
-                                                patrol_agreement=HYBRID_PATROL_AGREEMENT,
-                                                patrol_margin=HYBRID_PATROL_MARGIN))
-_HYBRID_APF = _HYBRID.apf
-_HYBRID_PRIOR = replace(_HYBRID, apf=replace(_HYBRID_APF, energy=replace(_HYBRID_APF.energy, prior=1.0)))
+_HYBRID_APF = HybridSettings().apf
+_HYBRID_PRIOR = replace(HybridSettings(),
+                        apf=replace(_HYBRID_APF, energy=replace(_HYBRID_APF.energy, prior=1.0)))
 #: the hybrid whose limb-repair APF has the unconstrained budget of Zhang et al.'s Fig. 9 (100 x 15,
 #: no prior): the control of the paper's claim in its own setting (docs/results/recovery.md)
-_HYBRID_100X15 = replace(_HYBRID, apf=replace(_HYBRID_APF, particles=100, layers=15))
+_HYBRID_100X15 = replace(HybridSettings(), apf=replace(_HYBRID_APF, particles=100, layers=15))
 
 
 #: the two-cue hybrid's keypoint weight (one keypoint correspondence against one contour
@@ -91,9 +78,11 @@ KEYPOINT_SMOOTHING_HZ = 4.0
 KEYPOINT_JOINT_LIMITS = "widened"
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints, as was its start chosen over frames
-#: (start_frames); nor its repair's wide search of a limb chain flagged frames in a row, apf.stuck_frames)
+#: (start_frames); nor its repair's wide search of a limb chain flagged frames in a row, apf.stuck_frames,
+#: nor its patrol of the arms, apf.patrol)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(), start_frames=StartOverFrames(),
-                     apf=replace(HybridSettings().apf, stuck_frames=0),
+                     apf=replace(HybridSettings().apf, stuck_frames=0, patrol=0, patrol_chains="all",
+                                 patrol_agreement=0.0, patrol_margin=0.0),
                      local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
                      smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),
                      joint_limits=KEYPOINT_JOINT_LIMITS,
@@ -118,7 +107,7 @@ PRESETS: dict[str, Any] = {
     "apf_prior": _APF_PRIOR,
     "apf_prior_real": replace(_APF_PRIOR, prior=_real(_APF_PRIOR.prior)),
     "local": LocalSettings(),
-    "hybrid": _HYBRID,
+    "hybrid": HybridSettings(),
     "hybrid_prior": _HYBRID_PRIOR,
     "hybrid_100x15": _HYBRID_100X15,
     "hybrid_prior_real": replace(_HYBRID_PRIOR,
