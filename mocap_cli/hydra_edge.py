@@ -55,6 +55,16 @@ _run_locks: list[contextlib.ExitStack] = []
 _refusals: list[Exception] = []
 
 
+class _SweepRefused(BaseException):
+    """A --multirun refused at its start (another process holds its sweep folder): raised past
+    Hydra (which turns a callback's ``Exception`` into a warning and goes on), re-raised by
+    :func:`run_command` as the :class:`~mocap.run_folder.lock.RunFolderBusy` it carries."""
+
+    def __init__(self, busy: Exception):
+        super().__init__(str(busy))
+        self.busy = busy
+
+
 class RunFolderLock(Callback):
     """One writer per run folder from before Hydra writes into it (a single run's
     ``hydra.run.dir``; ``hydra.callbacks.run_folder_lock`` in conf/tracking.yaml and
@@ -64,20 +74,39 @@ class RunFolderLock(Callback):
     held until :func:`run_command` returns (the run re-enters it). Refused (another process
     holds it): Hydra is told to write nothing (no ``.hydra/``, the log on the console only) and
     the task raises the refusal in one line, so the other run's files stay as they are. A
-    --multirun's jobs take their folders' locks in the task, as before."""
+    --multirun holds its sweep folder's lock (``hydra.sweep.dir``) from before Hydra writes
+    there until it returns, so a second sweep into the same folder is refused at once, in one
+    line, before it writes anything (its jobs take their own folders' locks in the task, as
+    before: Hydra writes a job's ``.hydra/`` and log before any callback of the job runs)."""
+
+    @staticmethod
+    def _folder(config: DictConfig, key: str) -> Path:
+        hydra_config = HydraConfig.instance()
+        before = hydra_config.cfg
+        hydra_config.set_config(config)     # the ${hydra:...} resolvers of run.dir read it
+        try:
+            return Path(str(OmegaConf.select(config, key)))   # (${now:} is cached)
+        finally:
+            hydra_config.cfg = before
+
+    def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        from mocap.run_folder.lock import RunFolderBusy, run_lock
+
+        if not _run_locks:              # Hydra run by other code than run_command: jobs lock
+            return
+        try:
+            _run_locks[-1].enter_context(run_lock(self._folder(config, "hydra.sweep.dir")))
+        except RunFolderBusy as exc:    # Hydra turns a callback's Exception into a warning
+            raise _SweepRefused(exc) from None
+        except OSError:                 # a folder that cannot be written: the jobs say so
+            return
 
     def on_run_start(self, config: DictConfig, **kwargs) -> None:
         from mocap.run_folder.lock import RunFolderBusy, run_lock
 
         if not _run_locks:              # Hydra run by other code than run_command: the task locks
             return
-        hydra_config = HydraConfig.instance()
-        before = hydra_config.cfg
-        hydra_config.set_config(config)     # the ${hydra:...} resolvers of run.dir read it
-        try:
-            out_dir = Path(str(OmegaConf.select(config, "hydra.run.dir")))   # (${now:} is cached)
-        finally:
-            hydra_config.cfg = before
+        out_dir = self._folder(config, "hydra.run.dir")
         try:
             _run_locks[-1].enter_context(run_lock(out_dir))
         except RunFolderBusy as exc:
@@ -144,6 +173,8 @@ def run_command(task: Callable[[DictConfig], object], config_name: str, prog: st
         _run_locks.append(locks)
         try:
             main()
+        except _SweepRefused as refused:
+            raise refused.busy from None
         except Exception as exc:
             hint = unknown_key_hint(exc, config_name, list(overrides or []), prog)
             if hint is None:

@@ -28,8 +28,7 @@ import numpy as np
 import mocap
 body = mocap.load_body("paper22")
 seq = mocap.synthetic_sequence(body, cameras="ring4_small", motion="walk", frames=4, seed=0)
-r = mocap.track(seq, tracker="hybrid", body=body, seed=0,
-                local={"iterations": 3}, apf={"particles": 8, "layers": 2})
+r = mocap.track(seq, tracker="apf_prior", body=body, seed=0, particles=8, layers=2)
 shaped = body.shaped(r.estimates[0].alpha)
 joints = np.stack([shaped.pose(e.chi[None]).joints[0] for e in r.estimates])
 err = 1e3 * np.linalg.norm(joints - seq.gt.joints[: len(joints)], axis=-1).mean()

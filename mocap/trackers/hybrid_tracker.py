@@ -127,6 +127,23 @@ def library_poses(body: BodyModel, angles: np.ndarray, dof_names, mirrored: bool
     return np.vstack([rows, swapped])
 
 
+def patrolled_chains(body: BodyModel, chains: list[tuple[int, list[int]]], which: str
+                     ) -> list[tuple[int, list[int]]]:
+    """The limb chains (root joint, its limbs) of ``chains`` that the patrol searches in turn
+    (``apf.patrol_chains``): ``all`` of them, ``arms`` (root joint named ``l_shoulder`` /
+    ``r_shoulder``) or ``legs`` (``l_hip`` / ``r_hip``), in their order. A ValueError naming the
+    field when a selection finds no chain of the body."""
+    if which == "all":
+        return list(chains)
+    root = {"arms": "shoulder", "legs": "hip"}[which]
+    names = body.joint_names
+    out = [c for c in chains if names[c[0]] in ("l_" + root, "r_" + root)]
+    if not out:
+        raise ValueError(f"apf.patrol_chains: {which!r} names no limb chain of body {body.name!r} "
+                         f"(chains rooted at {[names[r] for r, _ in chains]})")
+    return out
+
+
 class HybridTracker(LocalTracker):
     """settings: :class:`HybridSettings`; prior: the pose prior when ``settings.apf.energy.prior``;
     library: the restarts' motion library (rows (T, D), :func:`library_poses`), None: the
@@ -151,6 +168,7 @@ class HybridTracker(LocalTracker):
         self.stuck_frames, self.stuck_particles = int(a.stuck_frames), int(a.stuck_particles)
         self.stuck_searches: list[int] = []             # frames whose repair was the stuck chains' search
         self.chains = limb_chains(body)
+        self.patrolled = patrolled_chains(body, self.chains, a.patrol_chains)
         self.streak = np.zeros(len(self.chains), int)   # frames in a row each limb chain was flagged
         self.energy_mesh = energy_mesh_for(body, a.energy_mesh)   # None: the full mesh
         self.cue = KeypointCue(body, rig, settings.keypoints) if settings.keypoints.enabled else None
@@ -331,9 +349,9 @@ class HybridTracker(LocalTracker):
         bent the wrong way inside the silhouettes can pass both sides of the check for many
         frames while the silhouette energy still prefers the right pose (README, mismatch box).
         None: no patrol this frame."""
-        if not self.patrol or check.names or not self.chains or frame.index % self.patrol:
+        if not self.patrol or check.names or not self.patrolled or frame.index % self.patrol:
             return None
-        _, limbs = self.chains[(frame.index // self.patrol) % len(self.chains)]
+        _, limbs = self.patrolled[(frame.index // self.patrol) % len(self.patrolled)]
         flagged = np.zeros(self.body.num_joints, bool)
         flagged[limbs] = True
         return dataclasses.replace(check, flagged=flagged, names=[self.body.joint_names[j] for j in limbs])

@@ -85,9 +85,11 @@ KEYPOINT_SMOOTHING_HZ = 4.0
 KEYPOINT_JOINT_LIMITS = "widened"
 #: (its start: the plain silhouette start, which its keypoint search refines; the limb hypotheses of
 #: the silhouette-only hybrid's start were chosen without keypoints, as was its start chosen over frames
-#: (start_frames); nor its repair's wide search of a limb chain flagged frames in a row, apf.stuck_frames)
+#: (start_frames); nor its repair's wide search of a limb chain flagged frames in a row, apf.stuck_frames,
+#: nor its patrol of the arms, apf.patrol)
 _HYBRID_KP = replace(HybridSettings(), initialization=InitSettings(), start_frames=StartOverFrames(),
-                     apf=replace(HybridSettings().apf, stuck_frames=0),
+                     apf=replace(HybridSettings().apf, stuck_frames=0, patrol=0, patrol_chains="all",
+                                 patrol_agreement=0.0, patrol_margin=0.0),
                      local=replace(HybridSettings().local, active_limits=KEYPOINT_ACTIVE_LIMITS),
                      smoothing=TrackSmoothing(cutoff_hz=KEYPOINT_SMOOTHING_HZ),
                      joint_limits=KEYPOINT_JOINT_LIMITS,

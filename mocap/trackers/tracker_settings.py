@@ -30,6 +30,10 @@ from mocap.settings import check, fields_of
 #: (apf_prior, hybrid), the APF trackers about 2x faster per frame.
 ENERGY_MESH_FACES = 2000
 
+#: the limb chains the hybrid's patrol may search (``HybridSearchSettings.patrol_chains``): every
+#: chain, or those rooted at the shoulders (arms) or at the hips (legs)
+PATROL_CHAINS = ("all", "arms", "legs")
+
 
 @dataclass(frozen=True)
 class APFSettings:
@@ -466,20 +470,23 @@ class LocalSettings(LocalStepSettings):
 @dataclass(frozen=True)
 class HybridSearchSettings(SilhouetteSearchSettings):
     """The hybrid's APF over the misaligned limbs: a small budget, without the pose prior (ours is
-    learned from our own motion library and pulls limbs away on motions from other code),
-    its first layer wide (``init_std``: the search starts from a limb known to be wrong) with a
-    share ``restart`` of it drawn uniformly within the searched angles' limits, of which a
-    share ``restart_from_library`` take a pose of the pose prior's training motions (mirrored
-    or not); ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame
-    with nothing flagged one limb chain in turn is searched all the same (0: off), its pose kept
-    only where E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of
-    the views. ``heading_chains`` = N: where the check flags at least N limb chains at once, the
-    repair first turns the local step's pose about the vertical through its pelvis by each of
-    ``heading_angles`` (degrees), runs the local step from each, and the limb search starts from
-    whichever of them and the unturned pose has the lowest E_S (0: off; a turn the local step
-    did not follow leaves every limb off the silhouettes, and the limbs' angles cannot turn the
-    torso: :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged
-    on N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
+    learned from our own motion library and pulls limbs away on motions from other code), its
+    first layer wide (``init_std``: the search starts from a limb known to be wrong) with a
+    share ``restart`` of it drawn uniformly within the searched angles' limits, of which a share
+    ``restart_from_library`` take a pose of the pose prior's training motions (mirrored or not);
+    ``refine_iterations`` local iterations follow. ``patrol`` = N: every N-th frame with nothing
+    flagged one limb chain in turn is searched all the same (0: off), its pose kept only where
+    E_S falls by more than ``patrol_margin`` and in a share ``patrol_agreement`` of the views;
+    ``patrol_chains``: which chains it searches, ``all``, ``arms`` (the chains rooted at the
+    shoulders: a forearm held in front of the torso stays inside the silhouettes, where the
+    check cannot see it) or ``legs`` (rooted at the hips). ``heading_chains`` = N: where the
+    check flags at least N limb chains at once, the repair first turns the local step's pose
+    about the vertical through its pelvis by each of ``heading_angles`` (degrees), runs the
+    local step from each, and the limb search starts from whichever of them and the unturned
+    pose has the lowest E_S (0: off; a turn the local step did not follow leaves every limb off
+    the silhouettes, and the limbs' angles cannot turn the torso:
+    :mod:`mocap.trackers.heading`). ``stuck_frames`` = N: where a limb chain has been flagged on
+    N frames in a row, the repair's search has ``stuck_particles`` particles and three quarters
     of its first layer take the flagged chains' angles from the motion library (0: off; a limb
     wrong from the start is flagged frame after frame while the usual search, a few library
     draws among 25 particles, never finds it)."""
@@ -493,6 +500,7 @@ class HybridSearchSettings(SilhouetteSearchSettings):
     patrol: int = 0
     patrol_agreement: float = 0.0
     patrol_margin: float = 0.0
+    patrol_chains: str = "all"
     heading_chains: int = 0
     heading_angles: tuple[float, ...] = (-30.0, -15.0, 15.0, 30.0)
     stuck_frames: int = 0
@@ -507,6 +515,8 @@ class HybridSearchSettings(SilhouetteSearchSettings):
         check(self, "patrol", self.patrol >= 0, "an integer >= 0 frames")
         check(self, "patrol_agreement", 0.0 <= self.patrol_agreement <= 1.0, "[0, 1]")
         check(self, "patrol_margin", 0.0 <= self.patrol_margin < 1.0, "[0, 1)")
+        check(self, "patrol_chains", self.patrol_chains in PATROL_CHAINS,
+              "one of " + ", ".join(PATROL_CHAINS))
         check(self, "heading_chains", self.heading_chains >= 0, "an integer >= 0 chains (0: off)")
         check(self, "stuck_frames", self.stuck_frames >= 0, "an integer >= 0 frames (0: off)")
         check(self, "stuck_particles", self.stuck_particles >= 2, "an integer >= 2")
@@ -552,6 +562,15 @@ HYBRID_ACTIVE_LIMITS = True
 #: ... and its repair's wide search for a limb chain flagged this many frames in a row
 #: (HybridSearchSettings.stuck_frames; ``hybrid_kp`` keeps it off: not measured with keypoints)
 HYBRID_STUCK_FRAMES = 3
+#: ... and its patrol: every frame on which the check flags nothing, one arm in turn is searched by the
+#: repair all the same, its pose kept where E_S falls by 1 % and in 3 of 4 views (a forearm held in front
+#: of the torso stays inside the silhouettes, where the check cannot see it); chosen on the real-motion dev
+#: split, seeds 0-2 (issue 34 item 4: docs/results/surface.md, "Silhouette-only hybrid: the patrol over
+#: three seeds"); off in HybridSearchSettings and for ``hybrid_kp`` (not measured with keypoints)
+HYBRID_PATROL = 1
+HYBRID_PATROL_CHAINS = "arms"
+HYBRID_PATROL_AGREEMENT = 0.75
+HYBRID_PATROL_MARGIN = 0.01
 
 
 def _hybrid_local() -> LocalStepSettings:
@@ -564,8 +583,10 @@ def _hybrid_local() -> LocalStepSettings:
 
 def _hybrid_apf() -> HybridSearchSettings:
     """The hybrid's repair search: a limb chain flagged HYBRID_STUCK_FRAMES frames in a row gets the
-    wide search."""
-    return HybridSearchSettings(stuck_frames=HYBRID_STUCK_FRAMES)
+    wide search; the arms are patrolled (HYBRID_PATROL...)."""
+    return HybridSearchSettings(stuck_frames=HYBRID_STUCK_FRAMES, patrol=HYBRID_PATROL,
+                                patrol_chains=HYBRID_PATROL_CHAINS, patrol_agreement=HYBRID_PATROL_AGREEMENT,
+                                patrol_margin=HYBRID_PATROL_MARGIN)
 
 
 #: the silhouette-only hybrid's start: the self-initialisation's winner with each limb searched anew

@@ -199,3 +199,32 @@ def test_two_track_processes_on_one_folder_the_second_refuses_the_first_complete
     hydra_yaml = yaml.safe_load((run / ".hydra" / "hydra.yaml").read_text())["hydra"]
     assert "seed=0" in hydra_yaml["overrides"]["task"] and "seed=1" not in hydra_yaml["overrides"]["task"]
     assert "refused" not in (run / "track.log").read_text()
+
+
+def test_a_second_sweep_into_a_held_sweep_folder_is_refused_before_it_writes(tmp_path):
+    """A --multirun holds its sweep folder from before Hydra writes there: another process
+    holding it (a first sweep) makes the second refuse at once, in one line naming the holder,
+    with nothing written (no multirun.yaml, no job folder); once it is free, the sweep runs and
+    lets go of it."""
+    sweep = tmp_path / "sweep"
+    code = ("import sys; from mocap.run_folder.lock import run_lock\n"
+            f"with run_lock({str(sweep)!r}):\n    sys.stdin.read()\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=ENV, cwd=REPO)
+    command = [sys.executable, "-m", "mocap_cli", "track", "--multirun", f"hydra.sweep.dir={sweep}",
+               "seed=0,1", *TRACK]
+    try:
+        wait_for_holder(sweep, proc.pid, proc, 120)
+        second = subprocess.run(command, capture_output=True, text=True, env=ENV, cwd=REPO, timeout=600)
+        assert folder_files(sweep) == {} and sorted(p.name for p in sweep.iterdir()) == [LOCK]
+    finally:
+        proc.stdin.close()
+        proc.wait(60)
+    assert second.returncode == 2, second.stderr[-2000:]
+    lines = [line for line in second.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and f"pid {proc.pid}" in lines[0] and "refused" in lines[0], second.stderr
+    done = subprocess.run(command, capture_output=True, text=True, env={**ENV, "TQDM_DISABLE": "1"}, cwd=REPO,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert (sweep / "multirun.yaml").is_file() and not (sweep / LOCK).exists()
+    assert sorted(json.loads(p.read_text())["config"]["seed"] for p in sweep.glob("*/metrics.json")) == [0, 1]

@@ -54,8 +54,9 @@ def test_keypoint_weight_zero_is_the_hybrid_bit_for_bit(body, seq):
     start = folded_arm(body, seq.gt.chi[0])
     runs = []
     # both local steps hold angles at their limits (active_limits); the hybrid's repair has the stuck
-    # chains' wide search, hybrid_kp's not, and hybrid_kp has its own (widened) limits: matched
-    for name, extra in (("hybrid", {"apf": {**FAST["apf"], "stuck_frames": 0}}),
+    # chains' wide search and the arms' patrol, hybrid_kp's not, and hybrid_kp has its own (widened)
+    # limits: matched
+    for name, extra in (("hybrid", {"apf": {**FAST["apf"], "stuck_frames": 0, "patrol": 0}}),
                         ("hybrid_kp", {"keypoints": {"weight": 0.0}, "joint_limits": ""})):
         t = make_tracker(name, body=body, rig=seq.rig, rng=np.random.default_rng(3), **{**FAST, **extra})
         chi, alpha, report = t.refine_initial(frame_of(seq, 0), start, seq.gt.alpha)

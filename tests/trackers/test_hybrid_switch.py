@@ -266,7 +266,7 @@ def test_patrol_searches_one_chain_in_turn_when_nothing_is_flagged(body, seq):
 
     check = {"threshold": 1.5, "unexplained": 0.0}                 # never fires
     h = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
-                     local={**LOCAL, "misalignment": check}, apf={**APF, "patrol": 1})
+                     local={**LOCAL, "misalignment": check}, apf={**APF, "patrol": 1, "patrol_chains": "all"})
     h.initialize(seq.gt.chi[0], seq.gt.alpha)
     chains = limb_chains(body)
     seen = []
@@ -282,7 +282,7 @@ def test_patrol_searches_one_chain_in_turn_when_nothing_is_flagged(body, seq):
         seen.append(frozenset(want))
     assert seen[0] != seen[1]                                        # another chain each time
     quiet = make_tracker("hybrid", body=body, rig=seq.rig, rng=np.random.default_rng(0),
-                         local={**LOCAL, "misalignment": check}, apf=APF)
+                         local={**LOCAL, "misalignment": check}, apf={**APF, "patrol": 0})
     quiet.initialize(seq.gt.chi[0], seq.gt.alpha)
     m = quiet.step(frame_of(seq, 1)).diagnostics.misalignment
     assert m.apf_called is False and m.patrol is False

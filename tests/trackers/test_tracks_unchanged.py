@@ -44,9 +44,11 @@ def tolerance_mm(run: str) -> float:
 
 
 #: the hybrid's local step and repair as they were when the tracks were saved (issue 34 item 4 made the
-#: steps within the joint limits and the stuck chains' wide search its defaults: docs/results/surface.md)
+#: steps within the joint limits, the stuck chains' wide search and the arms' patrol its defaults:
+#: docs/results/surface.md)
 HYBRID_BEFORE = {"active_limits": False}
-REPAIR_BEFORE = {"stuck_frames": 0}
+REPAIR_BEFORE = {"stuck_frames": 0, "patrol": 0, "patrol_chains": "all", "patrol_agreement": 0.0,
+                 "patrol_margin": 0.0}
 
 #: run name -> (tracker, overrides, sequence kind, init)
 RUNS = {
@@ -57,7 +59,7 @@ RUNS = {
     "hybrid": ("hybrid", {"local": {"iterations": 4, **HYBRID_BEFORE}, "apf": {"layers": 3, **REPAIR_BEFORE}},
                "silhouettes", "gt_noise"),
     "hybrid_patrol": ("hybrid", {"local": {"iterations": 4, **HYBRID_BEFORE},
-                                 "apf": {"layers": 3, "patrol": 1, **REPAIR_BEFORE}},
+                                 "apf": {"layers": 3, **REPAIR_BEFORE, "patrol": 1}},
                       "silhouettes", "gt_noise"),
     "marker_apf": ("marker_apf", {"particles": 20, "layers": 3}, "markers", "tracker"),
 }
