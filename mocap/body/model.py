@@ -47,7 +47,9 @@ def _as_batch(x: np.ndarray | Sequence[float], width: int, what: str, dtype) -> 
 class ShapedBody:
     """A body of fixed shape alpha, ready to pose many particles.
 
-    rest_vertices: (V, 3); rest_joints: (J, 3); axes: (D, 3) DOF axes in the rest frame.
+    rest_vertices: (V, 3); rest_joints: (J, 3) (the shape's, plus ``joint_offsets`` where
+    given); axes: (D, 3) DOF axes in the rest frame, resolved from ``rest_joints``;
+    joint_offsets: None or (J, 3) float64 metres, the rest-joint corrections this body carries.
     """
 
     model: BodyModel
@@ -56,6 +58,7 @@ class ShapedBody:
     rest_joints: np.ndarray
     axes: np.ndarray
     _basis_t: np.ndarray = field(repr=False)
+    joint_offsets: np.ndarray | None = None
 
     def pose(self, chi: np.ndarray) -> BodyOutput:
         """chi: (P, D) or (D,) = (global twist (v, omega), joint angles in radians)."""
@@ -157,26 +160,54 @@ class BodyModel:
         verts, joints = verts.astype(self.dtype), joints.astype(self.dtype)
         return (verts[0], joints[0]) if single else (verts, joints)
 
-    def shaped(self, alpha: np.ndarray | None = None) -> ShapedBody:
-        """Fix the shape (default: the mean body) and precompute the skinning basis."""
+    def joint_offsets(self, offsets: np.ndarray | None) -> np.ndarray | None:
+        """Checked rest-joint corrections: None (none) or (J, 3) finite metres -> float64."""
+        if offsets is None:
+            return None
+        d = np.asarray(offsets, np.float64)
+        if d.shape != (self.num_joints, 3):
+            raise ValueError(f"joint_offsets must have shape ({self.num_joints}, 3), got {d.shape}")
+        if not np.all(np.isfinite(d)):
+            raise ValueError("joint_offsets contains NaN or inf")
+        return d
+
+    def corrected_joints(self, joints: np.ndarray, offsets: np.ndarray | None) -> np.ndarray:
+        """Rest joints (..., J, 3) of the shape plus checked ``offsets`` (J, 3), in the model's
+        dtype (the sum in float64); the joints themselves where ``offsets`` is None."""
+        if offsets is None:
+            return joints
+        return (np.asarray(joints, np.float64) + offsets).astype(self.dtype)
+
+    def shaped(self, alpha: np.ndarray | None = None, joint_offsets: np.ndarray | None = None) -> ShapedBody:
+        """Fix the shape (default: the mean body) and precompute the skinning basis.
+
+        joint_offsets: None or (J, 3) metres added to the shape's rest joints (a per-person
+        skeleton inside the shape's outline): the posed joints and the skinning's rotation
+        centres use the corrected joints, the DOF axes are resolved from them, and the rest mesh
+        is the shape's (at the zero pose the surface is unchanged)."""
         a = np.zeros(self.num_shape) if alpha is None else np.asarray(alpha, np.float64)
         if a.shape != (self.num_shape,):
             raise ValueError(f"shape alpha must have shape ({self.num_shape},), got {a.shape}")
+        d = self.joint_offsets(joint_offsets)
         verts, joints = self.rest(a)
+        joints = self.corrected_joints(joints, d)
         return ShapedBody(model=self, alpha=a, rest_vertices=verts, rest_joints=joints,
                           axes=resolve_axes(self.dofs, self.joint_names, joints),
-                          _basis_t=lbs_basis(self.weights, verts))
+                          _basis_t=lbs_basis(self.weights, verts), joint_offsets=d)
 
     # -- pose --------------------------------------------------------------------------
-    def pose(self, chi: np.ndarray, alpha: np.ndarray | None = None) -> BodyOutput:
-        """Pose a batch; alpha (K,) shared or (P, K) one per particle."""
+    def pose(self, chi: np.ndarray, alpha: np.ndarray | None = None,
+             joint_offsets: np.ndarray | None = None) -> BodyOutput:
+        """Pose a batch; alpha (K,) shared or (P, K) one per particle; joint_offsets: None or
+        (J, 3) rest-joint corrections shared by the batch (:meth:`shaped`)."""
         chi, _ = _as_batch(chi, self.num_dofs, "pose chi", self.dtype)
         if alpha is None or np.ndim(alpha) == 1:
-            return self.shaped(alpha).pose(chi)
+            return self.shaped(alpha, joint_offsets).pose(chi)
         a, _ = _as_batch(alpha, self.num_shape, "shape alpha", np.float64)
         if len(a) != len(chi):
             raise ValueError(f"{len(a)} shapes for {len(chi)} poses")
         verts, joints = self.rest(a)
+        joints = self.corrected_joints(joints, self.joint_offsets(joint_offsets))
         axes = resolve_axes(self.dofs, self.joint_names, joints)
         G = chain_transforms(self.parents, self.dof_joint, axes, joints, chi[:, :6], chi[:, 6:])
         return BodyOutput(vertices=lbs(self.weights, verts, G),

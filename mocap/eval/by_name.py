@@ -157,13 +157,15 @@ class NameScorer:
         return estimate_points(self.body.joint_names, shaped.joints(chis), self.landmarks.names,
                                self.landmarks.positions(shaped, chis))
 
-    def points_by_shape(self, alphas: np.ndarray, chis: np.ndarray) -> dict:
-        """:meth:`points` of poses chis (F, D) with shapes alphas (K,) or one per frame (F, K)."""
+    def points_by_shape(self, alphas: np.ndarray, chis: np.ndarray, joint_offsets: np.ndarray | None = None
+                        ) -> dict:
+        """:meth:`points` of poses chis (F, D) with shapes alphas (K,) or one per frame (F, K) and
+        rest-joint corrections ``joint_offsets`` (None, (J, 3) or (F, J, 3))."""
         from mocap.eval.estimates import per_shape
 
         J = self.body.num_joints
         both = per_shape(self.body, alphas, chis, lambda shaped, c: np.concatenate(
-            [shaped.joints(c), self.landmarks.positions(shaped, c)], axis=1))
+            [shaped.joints(c), self.landmarks.positions(shaped, c)], axis=1), joint_offsets)
         return estimate_points(self.body.joint_names, both[:, :J], self.landmarks.names, both[:, J:])
 
     def metrics(self, shaped, chis: np.ndarray, start: int = 0) -> dict:

@@ -12,7 +12,8 @@ import numpy as np
 
 class FrameEstimate(Protocol):
     """chi: (D,) pose; alpha: (K,) shape; diagnostics: the step's report (run metrics read
-    ``energy_evaluations`` and ``apf_called``)."""
+    ``energy_evaluations`` and ``apf_called``). An estimate may also carry ``joint_offsets``
+    (J, 3) rest-joint corrections or None (:func:`mocap.body.skeleton.joint_offsets_of`)."""
 
     chi: np.ndarray
     alpha: np.ndarray
@@ -20,20 +21,37 @@ class FrameEstimate(Protocol):
 
 
 def per_shape(body, alphas: np.ndarray, chis: np.ndarray,
-              fn: Callable[[Any, np.ndarray], np.ndarray]) -> np.ndarray:
+              fn: Callable[[Any, np.ndarray], np.ndarray],
+              joint_offsets: np.ndarray | None = None) -> np.ndarray:
     """``fn(shaped, chis)`` (n, ...) over frames whose shapes differ: alphas (K,) for every frame
-    or (F, K) one per frame (a tracker that refines its shape while tracking), chis (F, D). The
-    frames of each distinct shape are evaluated together; the result is in frame order."""
+    or (F, K) one per frame (a tracker that refines its shape while tracking), chis (F, D),
+    joint_offsets None, (J, 3) for every frame or (F, J, 3) one per frame (the bodies' rest-joint
+    corrections). The frames of each distinct shape are evaluated together; the result is in
+    frame order."""
     chis = np.atleast_2d(chis)
     alphas = np.asarray(alphas, np.float64)
+    offsets = None if joint_offsets is None else np.asarray(joint_offsets, np.float64)
+    if alphas.ndim == 1 and (offsets is None or offsets.ndim == 2):
+        return fn(body.shaped(alphas, offsets), chis)
     if alphas.ndim == 1:
-        return fn(body.shaped(alphas), chis)
+        alphas = np.repeat(alphas[None], len(chis), axis=0)
     if len(alphas) != len(chis):
         raise ValueError(f"{len(alphas)} shapes for {len(chis)} poses")
+    if offsets is None:
+        keys, off_of = alphas, None
+    else:
+        if offsets.ndim == 2:
+            offsets = np.repeat(offsets[None], len(chis), axis=0)
+        if len(offsets) != len(chis):
+            raise ValueError(f"{len(offsets)} joint offsets for {len(chis)} poses")
+        keys = np.hstack([alphas, offsets.reshape(len(offsets), -1)])
+        off_of = offsets
+    K = alphas.shape[1]
     out = None
-    for a in np.unique(alphas, axis=0):
-        sel = np.flatnonzero((alphas == a).all(axis=1))
-        part = np.asarray(fn(body.shaped(a), chis[sel]))
+    for key in np.unique(keys, axis=0):
+        sel = np.flatnonzero((keys == key).all(axis=1))
+        d = None if off_of is None else off_of[sel[0]]
+        part = np.asarray(fn(body.shaped(key[:K], d), chis[sel]))
         if out is None:
             out = np.empty((len(chis), *part.shape[1:]), part.dtype)
         out[sel] = part

@@ -12,6 +12,7 @@ import numpy as np
 
 from mocap.body.landmarks import LandmarkSet
 from mocap.body.model import BodyModel
+from mocap.body.skeleton import joint_offsets_of
 from mocap.data.sequence import Sequence
 from mocap.eval.by_name import NameScorer
 from mocap.eval.estimates import FrameEstimate, per_shape
@@ -162,7 +163,8 @@ def surface_oracle_metrics(body: BodyModel, seq: Sequence, frames: int,
 
 
 def surface_run_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray,
-                        oracle: OracleSettings | None = None) -> dict:
+                        oracle: OracleSettings | None = None,
+                        joint_offsets: np.ndarray | None = None) -> dict:
     """The surface part of :func:`accuracy_metrics` (a ground truth with ``surface``):
     :func:`mocap.eval.surface.surface_metrics` of the tracked mesh (``surface_to_mesh_mm``,
     ``..._p90_mm``, ``mesh_to_surface_mm``, ``..._p90_mm``, ``surface_per_frame``); with masks,
@@ -178,7 +180,8 @@ def surface_run_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha:
     oracle = oracle or OracleSettings()
     F = len(chis)
     t0, c0 = time.perf_counter(), time.process_time()
-    verts = per_shape(body, alpha, chis, lambda shaped, c: shaped.vertices(c)).astype(np.float64)
+    verts = per_shape(body, alpha, chis, lambda shaped, c: shaped.vertices(c),
+                      joint_offsets).astype(np.float64)
     out = surface_metrics(seq.gt.surface[:F], verts, body.faces, seq.gt.surface_faces)
     if seq.masks is not None:
         out.update(iou_metrics(silhouette_iou(seq.rig, body.faces, verts, seq.masks[:F]), seq.rig.names))
@@ -229,7 +232,8 @@ def run_metrics(body: BodyModel, seq: Sequence, estimates: list[FrameEstimate], 
     out.update(data_settings(seq))
     if seq.gt is not None:
         out.update(accuracy_metrics(body, seq, np.stack([e.chi for e in estimates]),
-                                    np.stack([e.alpha for e in estimates]), oracle))
+                                    np.stack([e.alpha for e in estimates]), oracle,
+                                    joint_offsets_of(estimates, body.num_joints)))
     if seq.detections is not None:      # tracked blind: frames whose views hold no detection at all
         out["frames_without_detections"] = frames_without_detections(seq.detections, F)
     keypoint_recording = "layout" in seq.meta     # read from keypoint files: scored on them too
@@ -263,9 +267,11 @@ def data_settings(seq: Sequence) -> dict:
 
 
 def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np.ndarray,
-                     oracle: OracleSettings | Mapping | None = None) -> dict:
+                     oracle: OracleSettings | Mapping | None = None,
+                     joint_offsets: np.ndarray | None = None) -> dict:
     """The ground-truth part of :func:`run_metrics` for poses chis (F, D) of shape alpha (K,),
-    or one shape per frame (F, K) (frame 0: the initialisation): what a run is re-scored with
+    or one shape per frame (F, K) (frame 0: the initialisation), and rest-joint corrections
+    ``joint_offsets`` (None, (J, 3) or (F, J, 3)): what a run is re-scored with
     when the evaluation changes (``mocap rescore``). Ground truth of several people: the
     per-person scores of :func:`mocap.eval.people.score_people` (the run's one track assigned
     to the person it follows best). ``oracle``: as in :func:`run_metrics`."""
@@ -275,7 +281,7 @@ def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np
     if seq.gt.person_names:
         return people_accuracy(body, seq.gt, [(alpha, chis)])
     scorer = NameScorer(body, seq.gt)
-    points = scorer.points_by_shape(alpha, chis)
+    points = scorer.points_by_shape(alpha, chis, joint_offsets)
     scores = scorer.score(points)     # joints matched by name
     out.update({k: v for k, v in scores.items() if k not in ("scored", "unscored")})
     out["frames_lost"] = int(np.sum(np.asarray(scores["per_frame_mm"][1:]) > LOST_MM))
@@ -286,12 +292,12 @@ def accuracy_metrics(body: BodyModel, seq: Sequence, chis: np.ndarray, alpha: np
         if oracle.enabled:
             out["oracle"] = oracle_metrics(body, seq, F, oracle)
     if seq.gt.surface is not None:
-        out.update(surface_run_metrics(body, seq, chis, alpha, oracle))
+        out.update(surface_run_metrics(body, seq, chis, alpha, oracle, joint_offsets))
     if scores["unscored"]:
         out["unscored_joints"] = scores["unscored"]
     landmarks = LandmarkSet(body)
     if seq.gt.markers is not None and tuple(seq.gt.marker_names) == landmarks.names:
-        est_markers = per_shape(body, alpha, chis, landmarks.positions)
+        est_markers = per_shape(body, alpha, chis, landmarks.positions, joint_offsets)
         out.update(mmta_mmtp(est_markers[1:], seq.gt.markers[1:F]) if F > 1 else {})
     return out
 

@@ -12,7 +12,12 @@ J joints, L landmarks, D DOFs, K shape coefficients; world metres, Z up, float64
     joint_rotations (F, J, 3, 3) float32    world rotation of each joint's rest-to-posed
                                             transform (identity at rest: the rest pose has
                                             no joint orientations)
-    rest_joints (J, 3)                      rest joints of the final shape
+    rest_joints (J, 3)                      rest joints of the final shape (with its corrections)
+    joint_offsets (F, J, 3)                 rest-joint corrections per frame, added to the
+                                            shape's rest joints (a tracker that fits its own
+                                            skeleton inside the shape: ``hybrid_kp``'s
+                                            ``keypoints.two_cue.skeleton``); zeros: none (a file
+                                            written before the field reads as zeros)
     root_transform (F, 4, 4)                rest-to-world transform of the root joint
     landmarks (F, L, 3) float32, landmark_names (L,)   the body's default landmark set
     energy (F,)                             total energy (NaN where not reported)
@@ -49,6 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mocap.body.skeleton import joint_offsets_of
 from mocap.safe_files import write_npz_atomic
 
 FORMAT = "mocap-motion-v1"
@@ -83,6 +89,7 @@ class Motion:
     info: dict = field(default_factory=dict)        # body, model_hash, tracker, data, run_id, seed
     vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
+    joint_offsets: np.ndarray | None = None         # (F, J, 3); load_motion: zeros for older files
 
     @property
     def num_frames(self) -> int:
@@ -157,23 +164,28 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
     chi = np.stack([np.asarray(e.chi, np.float64) for e in estimates])
     alpha = np.stack([np.asarray(e.alpha, np.float64) for e in estimates])
     J = body.num_joints
+    offsets = joint_offsets_of(estimates, J)
+    offsets = np.zeros((F, J, 3)) if offsets is None else offsets
     joints = np.empty((F, J, 3), np.float32)
     rotations = np.empty((F, J, 3, 3), np.float32)
     root = np.empty((F, 4, 4), np.float64)
     marks = LandmarkSet(body)
     lms = np.empty((F, len(marks), 3), np.float32)
     verts = np.empty((F, body.num_vertices, 3), np.float32) if vertices else None
-    # one shape per run in practice: pose all frames of the same shape at once
-    for a in np.unique(alpha, axis=0):
-        sel = np.flatnonzero((alpha == a).all(axis=1))
-        shaped = body.shaped(a)
+    # one shape per run in practice: pose all frames of the same shape (and skeleton) at once
+    keys = np.hstack([alpha, offsets.reshape(F, -1)])
+    for key in np.unique(keys, axis=0):
+        sel = np.flatnonzero((keys == key).all(axis=1))
+        d = offsets[sel[0]]
+        shaped = body.shaped(alpha[sel[0]], d if d.any() else None)
         out = shaped.pose(chi[sel])
         joints[sel], rotations[sel] = out.joints, out.transforms[:, :, :3, :3]
         root[sel] = out.transforms[:, 0]
         lms[sel] = marks.from_transforms(out.transforms, marks.rest_points(shaped))
         if verts is not None:
             verts[sel] = out.vertices
-    rest_joints = body.shaped(alpha[-1]).rest_joints.astype(np.float64)
+    last = offsets[-1] if offsets[-1].any() else None
+    rest_joints = body.shaped(alpha[-1], last).rest_joints.astype(np.float64)
     dec = [decisions(e.diagnostics) for e in estimates]
     terms = _union([d["energy_terms"] for d in dec])
     limbs = _union([list(d["limb_errors"]) + d["misaligned"] for d in dec])
@@ -185,7 +197,7 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
         "chi": chi, "dof_names": np.array(body.dof_names), "alpha": alpha,
         "joints": joints, "joint_names": np.array(body.joint_names),
         "joint_parents": np.asarray(body.parents, np.int64), "joint_rotations": rotations,
-        "rest_joints": rest_joints, "root_transform": root,
+        "rest_joints": rest_joints, "joint_offsets": offsets, "root_transform": root,
         "landmarks": lms, "landmark_names": np.array(marks.names),
         "energy": np.array([d["energy"] for d in dec]),
         "energy_term_names": np.array(terms, dtype=str),
@@ -274,6 +286,11 @@ def load_motion(path: str | Path) -> Motion:
         if len(a[k]) != F:
             raise MotionFileError(f"{path}: field '{k}' has {len(a[k])} frames, 'chi' has {F}")
     names = lambda k: tuple(str(n) for n in a[k])  # noqa: E731
+    J = len(a["joint_names"])
+    offsets = np.asarray(a["joint_offsets"], np.float64) if "joint_offsets" in a else np.zeros((F, J, 3))
+    if offsets.shape != (F, J, 3):
+        raise MotionFileError(f"{path}: field 'joint_offsets' has shape {offsets.shape}, "
+                              f"expected ({F}, {J}, 3)")
     per_frame = {k: a[k] for k in PER_FRAME if k in a}
     info = {k: (int(a[k]) if k == "seed" else str(a[k])) for k in INFO if k in a}
     return Motion(fps=float(a["fps"]), frame_index=a["frame_index"], timestamps=a["timestamps"],
@@ -282,7 +299,7 @@ def load_motion(path: str | Path) -> Motion:
                   joint_rotations=a["joint_rotations"], rest_joints=a["rest_joints"],
                   root_transform=a["root_transform"], landmarks=a["landmarks"],
                   landmark_names=names("landmark_names"), per_frame=per_frame, info=info,
-                  vertices=a.get("vertices"), faces=a.get("faces"))
+                  vertices=a.get("vertices"), faces=a.get("faces"), joint_offsets=offsets)
 
 
 def summary_text(m: Motion) -> str:

@@ -261,7 +261,7 @@ class RerunSink:
             if s.views and landmarks is not None:
                 self.motion_log.landmarks(rec, cols, f, d.landmarks.names, landmarks)
             if s.particles and d.particles:
-                self._log_particles(f, estimate.alpha, d.particles)
+                self._log_particles(f, estimate.alpha, d.particles, getattr(estimate, "joint_offsets", None))
             if s.views:
                 self._log_views(frame, vertices)
         self.frames_pending += 1
@@ -283,8 +283,8 @@ class RerunSink:
         if self.surface is not None and f < len(self.surface):
             cols.add("world/surface/truth", rr.Points3D, f, positions=np.array(self.surface[f], np.float32))
 
-    def _log_particles(self, f, alpha, particles) -> None:
-        shaped = self._shaped(alpha)
+    def _log_particles(self, f, alpha, particles, joint_offsets=None) -> None:
+        shaped = self._shaped(alpha, joint_offsets)
         if self.settings.particles == "all":
             named = [(f"layer_{m:02d}", x) for m, x in enumerate(particles)]
         else:
@@ -339,9 +339,12 @@ class RerunSink:
                 xy = (det.xy[det.view == c] + 0.5) * (w / self.seq.rig.sizes[c][0]) - 0.5
                 rec.log(f"views/{name}/detections", rr.Points2D(xy, radii=1.0, colors=[150, 150, 150]))
 
-    def _shaped(self, alpha):
-        if self.shaped is None or not np.array_equal(self.shaped.alpha, alpha):
-            self.shaped = self.body.shaped(alpha)
+    def _shaped(self, alpha, joint_offsets=None):
+        held = None if self.shaped is None else self.shaped.joint_offsets
+        same = (held is None and joint_offsets is None) or (
+            held is not None and joint_offsets is not None and np.array_equal(held, joint_offsets))
+        if self.shaped is None or not np.array_equal(self.shaped.alpha, alpha) or not same:
+            self.shaped = self.body.shaped(alpha, joint_offsets)
         return self.shaped
 
     def _log_views(self, frame: Frame, vertices: np.ndarray) -> None:

@@ -284,6 +284,11 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
 
 # -- the parts that differ by what the estimates hold: one person, or several ----------------
 
+def _same_offsets(a, b) -> bool:
+    """Whether two rest-joint corrections (None or (J, 3)) are the same."""
+    return (a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
+
+
 def _person_recorder(body, seq, sink, scorer):
     """record(f, {0: estimate}, step seconds): the body posed at the estimate (its shape
     refined while tracking), its error against the ground truth, into the recording."""
@@ -292,8 +297,10 @@ def _person_recorder(body, seq, sink, scorer):
     def record(f, out, step_seconds):
         t = time.perf_counter()
         est = out[0]
-        if "shape" not in held or not np.array_equal(held["shape"].alpha, est.alpha):
-            held["shape"] = body.shaped(est.alpha)
+        offsets = getattr(est, "joint_offsets", None)
+        if ("shape" not in held or not np.array_equal(held["shape"].alpha, est.alpha)
+                or not _same_offsets(held["shape"].joint_offsets, offsets)):
+            held["shape"] = body.shaped(est.alpha, offsets)
         shaped = held["shape"]
         posed = shaped.pose(est.chi)
         truth = err = None

@@ -24,13 +24,16 @@ class Frame:
 
 @dataclass(frozen=True)
 class Estimate:
-    """A tracker's answer for one frame: pose chi (D,), shape alpha (K,) and what the step
+    """A tracker's answer for one frame: pose chi (D,), shape alpha (K,), what the step
     reports (:class:`mocap.trackers.diagnostics.StepDiagnostics`: energies per term, annealing
-    layers, local iterations, decisions, timings in seconds)."""
+    layers, local iterations, decisions, timings in seconds) and the body's rest-joint
+    corrections ``joint_offsets`` (J, 3) metres (None: none, the shape's own skeleton;
+    :meth:`mocap.body.model.BodyModel.shaped`)."""
 
     chi: np.ndarray
     alpha: np.ndarray
     diagnostics: StepDiagnostics = field(default_factory=StepDiagnostics)
+    joint_offsets: np.ndarray | None = None
 
 
 class Tracker(Protocol):

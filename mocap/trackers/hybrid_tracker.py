@@ -23,6 +23,7 @@ import numpy as np
 
 from mocap.body.energy_mesh import energy_mesh_for
 from mocap.body.model import BodyModel
+from mocap.body.skeleton import fit_joint_offsets
 from mocap.body.twists import se3_exp, se3_log
 from mocap.cameras import Rig
 from mocap.energy.prior import PosePrior
@@ -175,6 +176,7 @@ class HybridTracker(LocalTracker):
         self.shape_moved = False         # a silhouette shape refinement was kept since the last keypoint fit
         two_cue = settings.keypoints.two_cue
         self.two_cue = TwoCueState(two_cue) if self.cue is not None and two_cue.enabled else None
+        self.joint_offsets: np.ndarray | None = None   # the two-cue fit's skeleton (J, 3), None: none
         self.start_frames = settings.start_frames
         self.pending: list[Frame] | None = None     # the frames since the start, until it is chosen
         self.revised: dict[int, Estimate] = {}       # frame -> estimate tracked again from the chosen start
@@ -244,6 +246,8 @@ class HybridTracker(LocalTracker):
         report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
         if self.two_cue is not None:
             self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), True)
+            if self.two_cue.settings.skeleton_refit:
+                self.two_cue.observed[frame.index] = (frame, obs)
         return chi, np.asarray(self.shaped.alpha, np.float64), report
 
     def search_start(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray
@@ -394,6 +398,19 @@ class HybridTracker(LocalTracker):
 
         self.history = [move(c) for c in self.history]
         state.shifted(move)
+        if state.settings.skeleton > 0:
+            frames, chis, measured = state.skeleton_frames()
+            for i, f in enumerate(frames if state.settings.skeleton_refit else ()):
+                frame, obs = state.observed[f]              # the poses re-fitted on the new shape
+                for _ in range(state.settings.skeleton_refit):
+                    chis[i] = self.local_step(frame, chis[i], extra=self.keypoint_lines(obs))[0]
+            if len(chis):
+                fit = fit_joint_offsets(self.body, self.cue.landmarks, found.alpha, chis, measured,
+                                        std=state.settings.skeleton, noise=state.settings.skeleton_noise,
+                                        rest_offsets=self.cue.offsets, start=self.joint_offsets)
+                self.joint_offsets = fit.offsets
+                state.reports[-1]["skeleton"] = fit.report
+                self.set_shape(found.alpha)
         return found.report
 
     def refine_shape(self, frame: Frame, chi: np.ndarray, aligned: bool = True):
@@ -403,8 +420,10 @@ class HybridTracker(LocalTracker):
             return chi, None
         return super().refine_shape(frame, chi, aligned)
 
-    def set_shape(self, alpha: np.ndarray) -> None:
-        super().set_shape(alpha)
+    def set_shape(self, alpha: np.ndarray, joint_offsets: np.ndarray | None = None) -> None:
+        """Track on with the shape ``alpha`` (K,) and the rest-joint corrections ``joint_offsets``
+        (J, 3); None: those the two-cue fit found (``keypoints.two_cue.skeleton``), if any."""
+        super().set_shape(alpha, self.joint_offsets if joint_offsets is None else joint_offsets)
         self.sil = SilhouetteEnergy(self.shaped, self.rig, self.scale, mesh=self.energy_mesh)
 
     @property
@@ -599,9 +618,12 @@ class HybridTracker(LocalTracker):
             self.cue.learn_offsets(self.shaped, chi, obs)
             if self.two_cue is not None:
                 self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), not check.names)
+                if self.two_cue.settings.skeleton_refit:
+                    self.two_cue.observed[frame.index] = (frame, obs)
             ks = self.cue.settings
             if ((self.shape_prior is not None and len(self.cue.shape_samples) < ks.shape_frames)
                     or (ks.shape_follow and ks.shape_std > 0 and ks.shape_frames > 1)):
                 self.cue.add_shape_sample(obs)
         return Estimate(chi=chi, alpha=self.shaped.alpha,
-                        diagnostics=dataclasses.replace(report, shape=shape, timings=timings))
+                        diagnostics=dataclasses.replace(report, shape=shape, timings=timings),
+                        joint_offsets=self.shaped.joint_offsets)

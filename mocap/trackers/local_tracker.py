@@ -97,9 +97,10 @@ class LocalTracker(SilhouetteInitialisation, OnePerson):
                                "check_sequence(seq) before tracking")
         return {pid: smooth_track(t, self.body.limits, self.fps, self.smoothing) for pid, t in tracks.items()}
 
-    def set_shape(self, alpha: np.ndarray) -> None:
-        """Track on with the shape ``alpha`` (K,)."""
-        self.shaped = self.body.shaped(alpha)
+    def set_shape(self, alpha: np.ndarray, joint_offsets: np.ndarray | None = None) -> None:
+        """Track on with the shape ``alpha`` (K,) (and rest-joint corrections ``joint_offsets``
+        (J, 3), None: none; :meth:`mocap.body.model.BodyModel.shaped`)."""
+        self.shaped = self.body.shaped(alpha, joint_offsets)
 
     def refine_shape(self, frame: Frame, chi: np.ndarray, aligned: bool = True
                      ) -> tuple[np.ndarray, ShapeUpdate | None]:

@@ -63,8 +63,15 @@ TWO_CUE_VIEW_SAMPLES = 8.0
 #: energy 1989 -> 1716 with it); chosen with the view samples above on the same dev split among 4 variants
 #: (issue 34 item 4: docs/results/surface.md, "The two-cue hybrid's proportions")
 TWO_CUE_QUADRATIC = 12
+#: at that fit, the person's skeleton inside the shape's outline too: rest-joint corrections fitted to the
+#: kept frames' keypoints (prior spread per coordinate, m), their poses first re-fitted on the new shape by
+#: this many local steps; chosen on the same dev split by the rule written before it ran (issue 34 item 4:
+#: docs/results/surface.md, "The two-cue hybrid's skeleton")
+TWO_CUE_SKELETON = 0.03
+TWO_CUE_SKELETON_REFIT = 1
 _TWO_CUE = TwoCueShape(frames=KEYPOINT_SHAPE_FRAMES, keyframes=KEYPOINT_SHAPE_FRAMES, aligned_only=False,
-                       view_samples=TWO_CUE_VIEW_SAMPLES, quadratic=TWO_CUE_QUADRATIC)
+                       view_samples=TWO_CUE_VIEW_SAMPLES, quadratic=TWO_CUE_QUADRATIC,
+                       skeleton=TWO_CUE_SKELETON, skeleton_refit=TWO_CUE_SKELETON_REFIT)
 #: its local step solved within the joint limits (an angle at its limit held while the others take up
 #: what it cannot give, not clipped after the solve), chosen on the same dev split (issue 34 item 4:
 #: docs/results/surface.md, "The two-cue hybrid's pose")

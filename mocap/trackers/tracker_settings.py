@@ -224,7 +224,14 @@ class TwoCueShape:
     at ``resolution`` px (longest image side), then at most ``polish`` energy evaluations of
     Powell's method from its result (0: none), then ``quadratic`` iterations (0: none) of a trust
     region on a quadratic model of batched samples, first radius ``quadratic_radius`` (the search's
-    units; :mod:`mocap.trackers.quadratic_polish`)."""
+    units; :mod:`mocap.trackers.quadratic_polish`). ``skeleton`` > 0: at each fit, rest-joint
+    corrections (the person's skeleton inside the shape's outline) are fitted too, to the
+    keypoints of the aligned frames with their poses held (:func:`mocap.body.skeleton.fit_joint_offsets`),
+    ``skeleton`` the prior's spread of each offset coordinate (m; 0: off, the shape's own
+    skeleton), ``skeleton_noise`` a triangulated keypoint's (m), ``skeleton_refit`` local steps
+    (keypoints and silhouettes) re-fitting each of those frames' poses on the new shape first (0:
+    the poses as tracked, with the shape before); the hybrid then tracks on the corrected body
+    (the rest mesh unchanged)."""
 
     frames: int = 0
     every: int = 0
@@ -242,9 +249,16 @@ class TwoCueShape:
     polish: int = 400
     quadratic: int = 0
     quadratic_radius: float = 1.0
+    skeleton: float = 0.0
+    skeleton_noise: float = 0.015
+    skeleton_refit: int = 0
 
     def __post_init__(self) -> None:
         check(self, "frames", self.frames >= 0, "an integer >= 0 (0: off)")
+        check(self, "skeleton", self.skeleton >= 0, ">= 0 m (0: off)")
+        check(self, "skeleton_noise", self.skeleton_noise > 0, "> 0 m")
+        check(self, "skeleton_refit", self.skeleton_refit >= 0,
+              "an integer >= 0 local steps (0: poses as tracked)")
         check(self, "polish", self.polish >= 0, "an integer >= 0 evaluations (0: none)")
         check(self, "quadratic", self.quadratic >= 0, "an integer >= 0 iterations (0: none)")
         check(self, "quadratic_radius", self.quadratic_radius > 0, "> 0 (the search's standard deviations)")

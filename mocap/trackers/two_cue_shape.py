@@ -282,12 +282,15 @@ class TwoCueState:
         self.settings = settings
         self.measured: list[np.ndarray] = []
         self.keyframes: list[tuple[int, np.ndarray, np.ndarray]] = []      # (index, chi, masks)
+        self.measured_at: dict[int, np.ndarray] = {}                       # index -> (L, 3)
+        self.observed: dict[int, tuple] = {}      # index -> (frame, its keypoints): skeleton_refit's
         self.fits = 0
         self.reports: list[dict] = []
 
     def add(self, index: int, chi: np.ndarray, masks: np.ndarray | None, measured: np.ndarray,
             aligned: bool) -> None:
         self.measured.append(np.asarray(measured, np.float64))
+        self.measured_at[int(index)] = self.measured[-1]
         if (aligned or not self.settings.aligned_only) and masks is not None:
             self.keyframes.append((int(index), np.asarray(chi, np.float64), masks))
 
@@ -304,6 +307,14 @@ class TwoCueState:
         if n <= k:
             return list(self.keyframes)
         return [self.keyframes[i] for i in np.unique(np.round(np.linspace(0, n - 1, k)).astype(int))]
+
+    def skeleton_frames(self) -> tuple[list[int], np.ndarray, np.ndarray]:
+        """The aligned frames' indices, poses (N, D) and triangulated landmarks (N, L, 3) (every
+        kept keyframe, not only the :meth:`chosen` ones): the skeleton fit's evidence."""
+        if not self.keyframes:
+            return [], np.zeros((0, 0)), np.zeros((0, 0, 3))
+        return ([f for f, _, _ in self.keyframes], np.stack([c for _, c, _ in self.keyframes]),
+                np.stack([self.measured_at[f] for f, _, _ in self.keyframes]))
 
     def shifted(self, move) -> None:
         """The kept poses moved by the shift that came with a fit."""

@@ -92,3 +92,23 @@ def test_marker_tracker_landmarks_are_kept_and_exported(tmp_path, body):
     assert rows[6].split("\t")[2:] == [""] * 6                        # frame 0: not reported
     # OpenSim axes (y, z, x) in mm: landmark LHeel at frame 1 = (1, 2, 3) m -> (2000, 3000, 1000)
     assert [float(v) for v in rows[7].split("\t")[2:5]] == [2000.0, 3000.0, 1000.0]
+
+
+def test_joint_offsets_round_trip_and_an_old_file_reads_zeros(tmp_path, body):
+    """A run whose estimates carry rest-joint corrections keeps them per frame (``joint_offsets``)
+    and its joints are those of the corrected body; a file without the field (written before it
+    existed) reads as zeros, and one of the wrong shape is refused naming the field."""
+    ests = _estimates(body)
+    d = np.random.default_rng(5).normal(scale=0.02, size=(body.num_joints, 3))
+    ests = [ests[0]] + [Estimate(e.chi, e.alpha, e.diagnostics, joint_offsets=d) for e in ests[1:]]
+    arrays = motion_arrays(body, ests, [0, 0, 0], 25.0)
+    m = load_motion(write_motion(tmp_path / "motion.npz", arrays))
+    np.testing.assert_array_equal(m.joint_offsets, [np.zeros_like(d), d, d])
+    np.testing.assert_array_equal(m.joints[1:], body.shaped(ests[1].alpha, d).pose(m.chi[1:]).joints)
+    np.testing.assert_array_equal(m.joints[0], body.shaped(ests[0].alpha).pose(m.chi[0]).joints[0])
+    old = {k: v for k, v in arrays.items() if k != "joint_offsets"}
+    m_old = load_motion(write_motion(tmp_path / "old.npz", old))
+    assert m_old.joint_offsets.shape == (3, body.num_joints, 3) and not m_old.joint_offsets.any()
+    bad = {**arrays, "joint_offsets": np.zeros((2, body.num_joints, 3))}
+    with pytest.raises(MotionFileError, match=r"field 'joint_offsets' has shape \(2, 19, 3\)"):
+        load_motion(write_motion(tmp_path / "bad.npz", bad))

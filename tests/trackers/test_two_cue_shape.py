@@ -142,12 +142,21 @@ def test_both_cues_recover_a_known_shape_better_than_either_alone(body, walk):
 def test_hybrid_kp_fits_its_shape_to_both_cues_after_its_keypoint_refit_frames():
     """The preset: the two-cue fit on, after the frames of the keypoint refit it replaces, every
     one of them in the silhouette term."""
-    from mocap.trackers.presets import KEYPOINT_SHAPE_FRAMES, PRESETS, TWO_CUE_QUADRATIC, TWO_CUE_VIEW_SAMPLES
+    from mocap.trackers.presets import (
+        KEYPOINT_SHAPE_FRAMES,
+        PRESETS,
+        TWO_CUE_QUADRATIC,
+        TWO_CUE_SKELETON,
+        TWO_CUE_SKELETON_REFIT,
+        TWO_CUE_VIEW_SAMPLES,
+    )
 
     two_cue = PRESETS["hybrid_kp"].keypoints.two_cue
     assert two_cue.enabled and two_cue.frames == two_cue.keyframes == KEYPOINT_SHAPE_FRAMES
     assert not two_cue.aligned_only and two_cue.view_samples == TWO_CUE_VIEW_SAMPLES
     assert two_cue.quadratic == TWO_CUE_QUADRATIC > 0 and TwoCueShape().quadratic == 0
+    assert two_cue.skeleton == TWO_CUE_SKELETON > 0 and two_cue.skeleton_refit == TWO_CUE_SKELETON_REFIT > 0
+    assert TwoCueShape().skeleton == 0 and TwoCueShape().skeleton_refit == 0
     assert not PRESETS["hybrid"].keypoints.two_cue.enabled
 
 
@@ -196,3 +205,40 @@ def test_the_hybrid_fits_the_shape_once_after_its_frames(body):
     off_alphas = np.stack([e.alpha for e in off])
     assert not np.array_equal(off_alphas[3], off_alphas[2])      # without it: the keypoint refit at 3
     assert not np.allclose(alphas[3], off_alphas[3])
+
+
+def test_the_hybrid_fits_its_skeleton_with_the_shape_and_tracks_on_it(body):
+    """``two_cue.skeleton`` > 0: at the two-cue fit the rest-joint corrections are fitted to the
+    aligned frames' keypoints (their report: the keypoint residual lower after than before), the
+    estimates from then on carry them and the tracker's body is the corrected one (its rest joints
+    the shape's plus them, its rest mesh the shape's); the frames before are the run's without
+    them, bit for bit, and off (0, the dataclass's) no estimate carries any."""
+    seq = keypoint_walk(body, 6)
+
+    def run(**two_cue):
+        t = make_tracker("hybrid_kp", body=body, rig=seq.rig, rng=np.random.default_rng(3), **FAST,
+                         keypoints={"shape_std": 1.0, "init": True, "shape_frames": 3,
+                                    "two_cue": {"frames": 3, "keyframes": 3, "particles": 10, "layers": 3,
+                                                "polish": 10, "quadratic": 0, **two_cue}})
+        chi, alpha, _ = t.refine_initial(frame_of(seq, 0), seq.gt.chi[0], np.zeros(body.num_shape))
+        return t, track_sequence(t, seq, chi, alpha).estimates
+
+    assert TwoCueShape().skeleton == 0.0
+    t_on, on = run(skeleton=0.03, skeleton_refit=0)
+    t_off, off = run(skeleton=0.0)
+    t_re, re = run(skeleton=0.03, skeleton_refit=1)          # the poses re-fitted first: another answer
+    assert not np.array_equal(t_re.joint_offsets, t_on.joint_offsets)
+    assert all(np.array_equal(e.joint_offsets, t_re.joint_offsets) for e in re[3:])
+    assert all(e.joint_offsets is None for e in off) and t_off.joint_offsets is None
+    assert all(e.joint_offsets is None for e in on[:3])
+    d = t_on.joint_offsets
+    assert d.shape == (body.num_joints, 3) and np.abs(d).max() > 0
+    assert all(np.array_equal(e.joint_offsets, d) for e in on[3:])
+    shaped = t_on.shaped
+    plain = body.shaped(shaped.alpha)
+    np.testing.assert_array_equal(shaped.rest_vertices, plain.rest_vertices)
+    np.testing.assert_allclose(shaped.rest_joints, plain.rest_joints + d, atol=1e-6)
+    report = t_on.two_cue.reports[0]["skeleton"]
+    assert report["rms_after_mm"] < report["rms_before_mm"] and report["observations"] > 0
+    for a, b in zip(on[:3], off[:3], strict=True):
+        assert np.array_equal(a.chi, b.chi) and np.array_equal(a.alpha, b.alpha)
