@@ -245,9 +245,7 @@ class HybridTracker(LocalTracker):
                                            obs, extra=self.keypoint_lines(obs))
         report["keypoint_refine"] = {"energy_before": before, "energy_after": after}
         if self.two_cue is not None:
-            self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), True)
-            if self.two_cue.settings.skeleton_refit:
-                self.two_cue.observed[frame.index] = (frame, obs)
+            self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), True, (frame, obs))
         return chi, np.asarray(self.shaped.alpha, np.float64), report
 
     def search_start(self, frame: Frame, chi: np.ndarray, alpha: np.ndarray
@@ -617,9 +615,8 @@ class HybridTracker(LocalTracker):
         if obs is not None:
             self.cue.learn_offsets(self.shaped, chi, obs)
             if self.two_cue is not None:
-                self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), not check.names)
-                if self.two_cue.settings.skeleton_refit:
-                    self.two_cue.observed[frame.index] = (frame, obs)
+                self.two_cue.add(frame.index, chi, frame.masks, self.cue.triangulated(obs), not check.names,
+                                 (frame, obs))
             ks = self.cue.settings
             if ((self.shape_prior is not None and len(self.cue.shape_samples) < ks.shape_frames)
                     or (ks.shape_follow and ks.shape_std > 0 and ks.shape_frames > 1)):

@@ -283,16 +283,27 @@ class TwoCueState:
         self.measured: list[np.ndarray] = []
         self.keyframes: list[tuple[int, np.ndarray, np.ndarray]] = []      # (index, chi, masks)
         self.measured_at: dict[int, np.ndarray] = {}                       # index -> (L, 3)
-        self.observed: dict[int, tuple] = {}      # index -> (frame, its keypoints): skeleton_refit's
+        self.observed: dict[int, tuple] = {}      # keyframe index -> (frame, its keypoints): skeleton_refit's
         self.fits = 0
         self.reports: list[dict] = []
 
+    @property
+    def fits_to_come(self) -> bool:
+        """Whether a fit may still come (none yet, or one every ``every`` frames)."""
+        return not self.fits or bool(self.settings.every)
+
     def add(self, index: int, chi: np.ndarray, masks: np.ndarray | None, measured: np.ndarray,
-            aligned: bool) -> None:
+            aligned: bool, observed: tuple | None = None) -> None:
+        """One tracked frame: its pose, masks, triangulated landmarks and whether its check
+        flagged nothing; ``observed`` (the frame, its keypoints): kept with a keyframe for
+        ``skeleton_refit`` while a fit may still come (not for the rest of a run whose fits are
+        done: a frame holds its images)."""
         self.measured.append(np.asarray(measured, np.float64))
         self.measured_at[int(index)] = self.measured[-1]
         if (aligned or not self.settings.aligned_only) and masks is not None:
             self.keyframes.append((int(index), np.asarray(chi, np.float64), masks))
+            if self.settings.skeleton_refit and observed is not None and self.fits_to_come:
+                self.observed[int(index)] = observed
 
     def due(self) -> bool:
         """Whether a fit is due now: ``frames`` frames in for the first, then every ``every``."""
