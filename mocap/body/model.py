@@ -69,6 +69,15 @@ class ShapedBody:
         return BodyOutput(vertices=lbs_apply(self._basis_t, G),
                           joints=posed_joints(G, self.rest_joints), transforms=G)
 
+    def is_for(self, alpha: np.ndarray, joint_offsets: np.ndarray | None = None) -> bool:
+        """Whether this is the body of shape ``alpha`` (K,) and rest-joint corrections
+        ``joint_offsets`` ((J, 3); None: none), to the bit: a cached body is built again otherwise."""
+        if not np.array_equal(self.alpha, alpha):
+            return False
+        if self.joint_offsets is None or joint_offsets is None:
+            return self.joint_offsets is None and joint_offsets is None
+        return np.array_equal(self.joint_offsets, joint_offsets)
+
     def vertices(self, chi: np.ndarray, basis_t: np.ndarray | None = None) -> np.ndarray:
         """Posed vertices only: (P, D) -> (P, V, 3); with ``basis_t`` (4J, V') the vertices of
         a mesh riding on this body (e.g. :meth:`EnergyMesh.skinning_basis

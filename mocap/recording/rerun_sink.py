@@ -340,10 +340,7 @@ class RerunSink:
                 rec.log(f"views/{name}/detections", rr.Points2D(xy, radii=1.0, colors=[150, 150, 150]))
 
     def _shaped(self, alpha, joint_offsets=None):
-        held = None if self.shaped is None else self.shaped.joint_offsets
-        same = (held is None and joint_offsets is None) or (
-            held is not None and joint_offsets is not None and np.array_equal(held, joint_offsets))
-        if self.shaped is None or not np.array_equal(self.shaped.alpha, alpha) or not same:
+        if self.shaped is None or not self.shaped.is_for(alpha, joint_offsets):
             self.shaped = self.body.shaped(alpha, joint_offsets)
         return self.shaped
 

@@ -284,11 +284,6 @@ def _track(out_dir, config, settings: RunSettings, p: _Prepared, sink, threads, 
 
 # -- the parts that differ by what the estimates hold: one person, or several ----------------
 
-def _same_offsets(a, b) -> bool:
-    """Whether two rest-joint corrections (None or (J, 3)) are the same."""
-    return (a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
-
-
 def _person_recorder(body, seq, sink, scorer):
     """record(f, {0: estimate}, step seconds): the body posed at the estimate (its shape
     refined while tracking), its error against the ground truth, into the recording."""
@@ -298,8 +293,7 @@ def _person_recorder(body, seq, sink, scorer):
         t = time.perf_counter()
         est = out[0]
         offsets = getattr(est, "joint_offsets", None)
-        if ("shape" not in held or not np.array_equal(held["shape"].alpha, est.alpha)
-                or not _same_offsets(held["shape"].joint_offsets, offsets)):
+        if "shape" not in held or not held["shape"].is_for(est.alpha, offsets):
             held["shape"] = body.shaped(est.alpha, offsets)
         shaped = held["shape"]
         posed = shaped.pose(est.chi)
@@ -326,7 +320,7 @@ def _people_recorder(body, seq, sink, scorer):
         t = time.perf_counter()
         posed = {}
         for pid, est in out.items():
-            if pid not in shaped or not np.array_equal(shaped[pid].alpha, est.alpha):
+            if pid not in shaped or not shaped[pid].is_for(est.alpha):
                 shaped[pid] = body.shaped(est.alpha)
             posed[pid] = (est, shaped[pid].pose(est.chi).joints[0])
         gt = truth.joints[f] if truth is not None and f < len(truth.joints) else None

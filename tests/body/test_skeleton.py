@@ -70,6 +70,21 @@ def test_no_offsets_is_bit_identical(body):
         np.testing.assert_array_equal(out.joints, ref.joints)
 
 
+def test_a_shaped_body_knows_the_shape_and_skeleton_it_is_for(body):
+    """``ShapedBody.is_for``: the same shape and corrections (None with None, equal arrays), to the
+    bit; another shape, corrections where there were none or other corrections: not."""
+    alpha = np.random.default_rng(4).normal(size=body.num_shape)
+    d = np.zeros((body.num_joints, 3))
+    d[5] = [0.0, 0.01, 0.0]
+    plain, moved = body.shaped(alpha), body.shaped(alpha, d)
+    assert plain.is_for(alpha) and plain.is_for(alpha.copy(), None)
+    assert moved.is_for(alpha, d.copy())
+    other = alpha.copy()
+    other[0] += 1e-9
+    assert not plain.is_for(other) and not moved.is_for(other, d)
+    assert not plain.is_for(alpha, d) and not moved.is_for(alpha) and not moved.is_for(alpha, 2 * d)
+
+
 def test_offsets_are_checked_before_any_work(body):
     with pytest.raises(ValueError, match=r"joint_offsets must have shape \(19, 3\)"):
         body.shaped(None, np.zeros((3, 3)))
