@@ -84,6 +84,36 @@ def joint_offsets_of(estimates, joints: int) -> np.ndarray | None:
     return np.stack([np.zeros((joints, 3)) if o is None else np.asarray(o, np.float64) for o in offsets])
 
 
+def frames_by_body(alphas: np.ndarray, joint_offsets: np.ndarray | None, frames: int
+                   ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
+    """The frames that share one body: shapes ``alphas`` (K,) for every frame or (F, K) one per
+    frame, rest-joint corrections ``joint_offsets`` None, (J, 3) for every frame or (F, J, 3) one
+    per frame, ``frames`` F -> [(frame indices (n,), shape (K,) float64, corrections (J, 3) or
+    None where they are all zero: the shape's own skeleton, the same body to the bit)], one entry
+    per distinct (shape, corrections). A ValueError when a per-frame array has another count."""
+    alphas = np.asarray(alphas, np.float64)
+    if alphas.ndim == 1:
+        alphas = np.repeat(alphas[None], frames, axis=0)
+    if len(alphas) != frames:
+        raise ValueError(f"{len(alphas)} shapes for {frames} poses")
+    K = alphas.shape[1]
+    if joint_offsets is None:
+        keys, offsets = alphas, None
+    else:
+        offsets = np.asarray(joint_offsets, np.float64)
+        if offsets.ndim == 2:
+            offsets = np.repeat(offsets[None], frames, axis=0)
+        if len(offsets) != frames:
+            raise ValueError(f"{len(offsets)} joint offsets for {frames} poses")
+        keys = np.hstack([alphas, offsets.reshape(frames, -1)])
+    out = []
+    for key in np.unique(keys, axis=0):
+        sel = np.flatnonzero((keys == key).all(axis=1))
+        d = None if offsets is None or not offsets[sel[0]].any() else offsets[sel[0]]
+        out.append((sel, key[:K].copy(), d))
+    return out
+
+
 def marked_joints(body: BodyModel, landmarks: LandmarkSet) -> np.ndarray:
     """(n,) sorted indices of the joints a landmark's rest point is made of (``at`` / ``between``):
     the joints keypoints measure directly. A joint that is only a rotation centre (no landmark on

@@ -9,6 +9,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from mocap.body.skeleton import frames_by_body
+
 
 class FrameEstimate(Protocol):
     """chi: (D,) pose; alpha: (K,) shape; diagnostics: the step's report (run metrics read
@@ -29,29 +31,12 @@ def per_shape(body, alphas: np.ndarray, chis: np.ndarray,
     corrections). The frames of each distinct shape are evaluated together; the result is in
     frame order."""
     chis = np.atleast_2d(chis)
-    alphas = np.asarray(alphas, np.float64)
-    offsets = None if joint_offsets is None else np.asarray(joint_offsets, np.float64)
-    if alphas.ndim == 1 and (offsets is None or offsets.ndim == 2):
-        return fn(body.shaped(alphas, offsets), chis)
-    if alphas.ndim == 1:
-        alphas = np.repeat(alphas[None], len(chis), axis=0)
-    if len(alphas) != len(chis):
-        raise ValueError(f"{len(alphas)} shapes for {len(chis)} poses")
-    if offsets is None:
-        keys, off_of = alphas, None
-    else:
-        if offsets.ndim == 2:
-            offsets = np.repeat(offsets[None], len(chis), axis=0)
-        if len(offsets) != len(chis):
-            raise ValueError(f"{len(offsets)} joint offsets for {len(chis)} poses")
-        keys = np.hstack([alphas, offsets.reshape(len(offsets), -1)])
-        off_of = offsets
-    K = alphas.shape[1]
+    groups = frames_by_body(alphas, joint_offsets, len(chis))
+    if len(groups) == 1:
+        return fn(body.shaped(groups[0][1], groups[0][2]), chis)
     out = None
-    for key in np.unique(keys, axis=0):
-        sel = np.flatnonzero((keys == key).all(axis=1))
-        d = None if off_of is None else off_of[sel[0]]
-        part = np.asarray(fn(body.shaped(key[:K], d), chis[sel]))
+    for sel, alpha, offsets in groups:
+        part = np.asarray(fn(body.shaped(alpha, offsets), chis[sel]))
         if out is None:
             out = np.empty((len(chis), *part.shape[1:]), part.dtype)
         out[sel] = part

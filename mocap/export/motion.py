@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocap.body.skeleton import joint_offsets_of
+from mocap.body.skeleton import frames_by_body, joint_offsets_of
 from mocap.safe_files import write_npz_atomic
 
 FORMAT = "mocap-motion-v1"
@@ -164,8 +164,8 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
     chi = np.stack([np.asarray(e.chi, np.float64) for e in estimates])
     alpha = np.stack([np.asarray(e.alpha, np.float64) for e in estimates])
     J = body.num_joints
-    offsets = joint_offsets_of(estimates, J)
-    offsets = np.zeros((F, J, 3)) if offsets is None else offsets
+    found = joint_offsets_of(estimates, J)
+    offsets = np.zeros((F, J, 3)) if found is None else found
     joints = np.empty((F, J, 3), np.float32)
     rotations = np.empty((F, J, 3, 3), np.float32)
     root = np.empty((F, 4, 4), np.float64)
@@ -173,11 +173,8 @@ def motion_arrays(body, estimates: Sequence, seconds: Sequence[float], fps: floa
     lms = np.empty((F, len(marks), 3), np.float32)
     verts = np.empty((F, body.num_vertices, 3), np.float32) if vertices else None
     # one shape per run in practice: pose all frames of the same shape (and skeleton) at once
-    keys = np.hstack([alpha, offsets.reshape(F, -1)])
-    for key in np.unique(keys, axis=0):
-        sel = np.flatnonzero((keys == key).all(axis=1))
-        d = offsets[sel[0]]
-        shaped = body.shaped(alpha[sel[0]], d if d.any() else None)
+    for sel, a, d in frames_by_body(alpha, found, F):
+        shaped = body.shaped(a, d)
         out = shaped.pose(chi[sel])
         joints[sel], rotations[sel] = out.joints, out.transforms[:, :, :3, :3]
         root[sel] = out.transforms[:, 0]

@@ -117,9 +117,7 @@ def _rescore_person(run: Path, body, seq, oracle) -> tuple[dict, int]:
     F = motion.num_frames
     if motion.chi.shape[1] != body.num_dofs:
         raise ValueError(f"{run}: motion has {motion.chi.shape[1]} DOFs, body {body.name!r} {body.num_dofs}")
-    offsets = motion.joint_offsets
-    offsets = offsets if offsets is not None and offsets.any() else None
-    return accuracy_metrics(body, seq, motion.chi, motion.alpha, oracle, offsets), F
+    return accuracy_metrics(body, seq, motion.chi, motion.alpha, oracle, motion.joint_offsets), F
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -9,6 +9,7 @@ from mocap.body.catalogue import make_landmark_set, probe_poses
 from mocap.body.dofs import resolve_axes
 from mocap.body.skeleton import (
     fit_joint_offsets,
+    frames_by_body,
     joint_offsets_of,
     marked_joints,
     offset_map,
@@ -83,6 +84,26 @@ def test_a_shaped_body_knows_the_shape_and_skeleton_it_is_for(body):
     other[0] += 1e-9
     assert not plain.is_for(other) and not moved.is_for(other, d)
     assert not plain.is_for(alpha, d) and not moved.is_for(alpha) and not moved.is_for(alpha, 2 * d)
+
+
+def test_frames_are_grouped_by_the_body_they_are_posed_on():
+    """One group per distinct (shape, corrections), corrections None where all zero; a shape or
+    corrections for every frame; a per-frame count other than the frames' refused."""
+    a, b = np.zeros(3), np.ones(3)
+    d = np.zeros((4, 2, 3))
+    d[2:, 1] = 0.01                      # the skeleton fitted from frame 2 on
+    groups = frames_by_body(np.stack([a, a, a, b]), d, 4)
+    got = sorted((list(sel), tuple(alpha), None if o is None else o[1, 0] + o[1, 1])
+                 for sel, alpha, o in groups)
+    assert got == [([0, 1], (0, 0, 0), None), ([2], (0, 0, 0), 0.02), ([3], (1, 1, 1), 0.02)]
+    (sel, alpha, o), = frames_by_body(a, None, 3)
+    assert list(sel) == [0, 1, 2] and o is None and alpha.dtype == np.float64
+    (sel, _, o), = frames_by_body(a, d[3], 2)
+    assert list(sel) == [0, 1] and np.array_equal(o, d[3])
+    with pytest.raises(ValueError, match="2 shapes for 3 poses"):
+        frames_by_body(np.stack([a, b]), None, 3)
+    with pytest.raises(ValueError, match="4 joint offsets for 3 poses"):
+        frames_by_body(a, d, 3)
 
 
 def test_offsets_are_checked_before_any_work(body):
